@@ -1,0 +1,38 @@
+"""Build script of the forte_perception ament_python package (colcon and pip)."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = 'forte_perception'
+
+
+def share(pattern: str) -> list[str]:
+    """Files matching ``pattern`` (relative to this folder), for data_files."""
+    return sorted(glob(pattern, recursive=True))
+
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', share('config/*.yaml')),
+        ('share/' + package_name + '/launch', share('launch/*.py')),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=False,
+    maintainer='FORTE maintainers',
+    maintainer_email='maintainers@forte-gripper.org',
+    description='FORTE signal processing (median filter, tare, contact, SVR force estimation, PSD slip detection) as a pure library, the perception node, and offline training, evaluation and benchmark tools.',
+    license='Apache-2.0',
+    extras_require={'test': ['pytest']},
+    entry_points={
+        'console_scripts': [
+            'perception_node = forte_perception.perception_node:main',
+            'forte_train_force = forte_perception.tools.train_force:main',
+            'forte_evaluate_slip = forte_perception.tools.evaluate_slip:main',
+        ],
+    },
+)
