@@ -25,7 +25,9 @@ setup(
     zip_safe=False,
     maintainer='FORTE maintainers',
     maintainer_email='maintainers@forte-gripper.org',
-    description='FORTE grasp state machine (FORTE, W/o-Slip and On-Off controllers) as a pure library, and the control node serving the Grasp action with a safety watchdog.',
+    description=('FORTE grasp state machine (FORTE, W/o-Slip and On-Off controllers) as a '
+                 'pure library, and the control node serving the Grasp action with a '
+                 'safety watchdog.'),
     license='Apache-2.0',
     extras_require={'test': ['pytest']},
     entry_points={

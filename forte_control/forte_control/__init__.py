@@ -1,1 +1,6 @@
-"""FORTE grasp state machine (FORTE, W/o-Slip and On-Off controllers) as a pure library, and the control node serving the Grasp action with a safety watchdog."""
+"""FORTE grasp control.
+
+The grasp state machine (FORTE, W/o-Slip and On-Off controllers) as a pure library
+(:mod:`forte_control.state_machine`) and the control node serving the Grasp action with a
+safety watchdog (:mod:`forte_control.grasp_controller_node`).
+"""
