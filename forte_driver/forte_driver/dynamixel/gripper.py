@@ -1,0 +1,642 @@
+"""The FORTE gripper (two XM430-W350 finger servos) on top of dynamixel-sdk.
+
+Pure core of the gripper driver (no rclpy): configuration and validation, the mapping
+between the gripper angle theta and each servo's raw position, the limits written to
+the servos' own EEPROM, one sync write per command and one sync read per state sample.
+
+Angle convention (paper, docs/contracts.md): theta = 0 rad is fully closed, larger opens.
+Each finger maps theta to its servo's raw position with its own zero (raw position at
+theta = 0) and direction (+1 or -1; the left finger is mirrored)::
+
+    raw = zero_position + direction * theta / (2 pi / 4096)
+
+Velocities and currents are reported along theta too (positive = opening), so a finger
+squeezing an object reports a negative effort on both fingers.
+
+Note on position limits: the XM430-W350 applies Min/Max Position Limit(52/48) only in
+Position Control Mode (3); in Current-based Position Control Mode (5), which this driver
+uses, the servo firmware ignores them (e-manual). The driver therefore writes them (so the
+servo's EEPROM is the single record of the allowed range, also used if someone switches
+the servo to mode 3), reads them back, and clips every goal position to the read-back
+registers itself. Current Limit(38) and Velocity Limit(44) are enforced by the servo in
+mode 5: Goal Current beyond Current Limit and Profile Velocity beyond Velocity Limit are
+refused by the firmware.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from dynamixel_sdk import COMM_SUCCESS, GroupSyncRead, GroupSyncWrite, PacketHandler, PortHandler
+
+from forte_driver.dynamixel import control_table as ct
+from forte_driver.dynamixel import units
+
+PROTOCOL_VERSION = 2.0
+
+
+class DynamixelError(RuntimeError):
+    """A transaction with a servo failed (no answer, corrupt answer, or error in status)."""
+
+
+@dataclass(frozen=True)
+class FingerConfig:
+    """One finger servo.
+
+    Attributes
+    ----------
+    name : str
+        ``'left'`` or ``'right'``.
+    joint_name : str
+        JointState name of the finger joint.
+    servo_id : int
+        DYNAMIXEL id (0..252).
+    zero_position : int
+        Raw position [pulse] of the servo at theta = 0 (gripper fully closed).
+    direction : int
+        +1 if theta grows with the raw position, -1 if mirrored.
+    """
+
+    name: str
+    joint_name: str
+    servo_id: int
+    zero_position: int = 2048
+    direction: int = 1
+
+    def theta_to_raw(self, theta: float) -> int:
+        """Raw Goal Position [pulse] of gripper angle ``theta`` [rad]."""
+        return self.zero_position + self.direction * units.radians_to_pulses(theta)
+
+    def raw_to_theta(self, raw: float) -> float:
+        """Gripper angle [rad] of raw position ``raw`` [pulse]."""
+        return self.direction * units.pulses_to_radians(raw - self.zero_position)
+
+
+@dataclass(frozen=True)
+class GripperLimits:
+    """Limits written into both servos' EEPROM at configure.
+
+    Attributes
+    ----------
+    theta_min, theta_max : float
+        Allowed gripper angle range [rad] (0 = fully closed).
+    current_limit : float
+        Current Limit [A] (the servo refuses larger Goal Currents); 0.00269..3.209 A.
+    velocity_limit : float
+        Velocity Limit [rad/s] (the servo refuses larger Profile Velocities); <= 24.5 rad/s.
+    temperature_limit : int
+        Temperature Limit [degC] (overheating error above it); 0..100.
+    """
+
+    theta_min: float = 0.0
+    theta_max: float = 1.0
+    current_limit: float = 1.0
+    velocity_limit: float = 4.796
+    temperature_limit: int = 70
+
+
+@dataclass(frozen=True)
+class GripperConfig:
+    """Everything the gripper core needs; validated by :meth:`validate`.
+
+    Attributes
+    ----------
+    port : str
+        Serial device (e.g. ``/dev/ttyUSB0`` or a udev name).
+    baud_rate : int
+        Bus speed [bit/s]; must match the servos' Baud Rate register.
+    right, left : FingerConfig
+        Finger servos.
+    limits : GripperLimits
+        Limits written to the servos.
+    default_current : float
+        Goal Current [A] used when a command gives 0.
+    default_profile_velocity : float
+        Profile Velocity [rad/s] used when a command gives 0.
+    profile_acceleration : int
+        Profile Acceleration register value (214.577 rev/min^2 units; 0 = unlimited).
+    """
+
+    port: str = '/dev/ttyUSB0'
+    baud_rate: int = 4_000_000
+    right: FingerConfig = field(default_factory=lambda: FingerConfig(
+        'right', 'forte_right_finger_joint', 1, 2048, 1))
+    left: FingerConfig = field(default_factory=lambda: FingerConfig(
+        'left', 'forte_left_finger_joint', 2, 2048, -1))
+    limits: GripperLimits = field(default_factory=GripperLimits)
+    default_current: float = 0.5
+    default_profile_velocity: float = 1.0
+    profile_acceleration: int = 0
+
+    @property
+    def fingers(self) -> tuple[FingerConfig, FingerConfig]:
+        """(left, right), the joint order of JointState."""
+        return (self.left, self.right)
+
+    def validate(self) -> None:
+        """Raise ValueError with the reason if the configuration cannot be used."""
+        problems = []
+        if self.baud_rate not in ct.REGISTER_BY_BAUD_RATE:
+            problems.append(f'baud_rate {self.baud_rate} is not a DYNAMIXEL rate '
+                            f'({sorted(ct.REGISTER_BY_BAUD_RATE)})')
+        if self.left.servo_id == self.right.servo_id:
+            problems.append(f'both fingers have id {self.left.servo_id}')
+        limits = self.limits
+        if not (math.isfinite(limits.theta_min) and math.isfinite(limits.theta_max)
+                and limits.theta_min < limits.theta_max):
+            problems.append(f'theta range [{limits.theta_min}, {limits.theta_max}] rad is empty')
+        for finger in self.fingers:
+            if not 0 <= finger.servo_id <= 252:
+                problems.append(f'{finger.name} id {finger.servo_id} outside 0..252')
+            if finger.direction not in (-1, 1):
+                problems.append(f'{finger.name} direction must be +1 or -1')
+            if math.isfinite(limits.theta_min) and math.isfinite(limits.theta_max):
+                low, high = self.position_limits(finger)
+                if low < 0 or high > 4095:
+                    problems.append(
+                        f'{finger.name} theta range maps to raw {low}..{high}, outside the '
+                        f'position limit registers 0..4095 (check zero_position/direction)')
+        current_units = units.amperes_to_current_units(limits.current_limit)
+        if not 1 <= current_units <= ct.CURRENT_LIMIT.maximum:
+            problems.append(f'current_limit {limits.current_limit} A outside '
+                            f'0.00269..{ct.CURRENT_LIMIT.maximum * 2.69e-3:.3f} A')
+        velocity_units = units.radians_per_second_to_velocity_units(limits.velocity_limit)
+        if not 1 <= velocity_units <= ct.VELOCITY_LIMIT.maximum:
+            problems.append(f'velocity_limit {limits.velocity_limit} rad/s outside '
+                            f'0.024..{ct.VELOCITY_LIMIT.maximum * 0.0239809:.2f} rad/s')
+        if not 0 <= limits.temperature_limit <= 100:
+            problems.append(f'temperature_limit {limits.temperature_limit} outside 0..100 degC')
+        if not 0 < self.default_current <= limits.current_limit:
+            problems.append(f'default_current {self.default_current} A not in '
+                            f'(0, current_limit={limits.current_limit}]')
+        if not 0 < self.default_profile_velocity <= limits.velocity_limit:
+            problems.append(f'default_profile_velocity {self.default_profile_velocity} rad/s '
+                            f'not in (0, velocity_limit={limits.velocity_limit}]')
+        if not 0 <= self.profile_acceleration <= ct.PROFILE_ACCELERATION.maximum:
+            problems.append('profile_acceleration outside 0..32767')
+        if problems:
+            raise ValueError('; '.join(problems))
+
+    def position_limits(self, finger: FingerConfig) -> tuple[int, int]:
+        """(Min, Max) Position Limit register values [pulse] of ``finger``."""
+        a = finger.theta_to_raw(self.limits.theta_min)
+        b = finger.theta_to_raw(self.limits.theta_max)
+        return min(a, b), max(a, b)
+
+    def eeprom_targets(self, finger: FingerConfig) -> dict[ct.Register, int]:
+        """Register values written to ``finger``'s EEPROM at configure."""
+        low, high = self.position_limits(finger)
+        return {
+            ct.OPERATING_MODE: ct.OPERATING_MODE_CURRENT_BASED_POSITION,
+            ct.CURRENT_LIMIT: units.amperes_to_current_units(self.limits.current_limit),
+            ct.VELOCITY_LIMIT: units.radians_per_second_to_velocity_units(
+                self.limits.velocity_limit),
+            ct.MAX_POSITION_LIMIT: high,
+            ct.MIN_POSITION_LIMIT: low,
+            ct.TEMPERATURE_LIMIT: int(self.limits.temperature_limit),
+        }
+
+
+@dataclass
+class CommandCheck:
+    """Outcome of validating one gripper command.
+
+    Attributes
+    ----------
+    accepted : bool
+        False if the command must not be sent (``reasons`` says why).
+    theta : float
+        Goal angle after clipping [rad].
+    current : float
+        Goal Current after defaulting/clipping [A].
+    profile_velocity : float
+        Profile Velocity after defaulting/clipping [rad/s].
+    clipped : bool
+        True if a value was changed to fit the limits.
+    reasons : list of str
+        Why the command was refused or clipped (empty if sent as given).
+    """
+
+    accepted: bool
+    theta: float = 0.0
+    current: float = 0.0
+    profile_velocity: float = 0.0
+    clipped: bool = False
+    reasons: list[str] = field(default_factory=list)
+
+
+def check_command(theta: float, current: float, profile_velocity: float,
+                  limits: GripperLimits, default_current: float,
+                  default_profile_velocity: float) -> CommandCheck:
+    """Validate a command against the limits (pure; known-answer tested).
+
+    Non-finite values and negative current or velocity are refused (nothing is sent);
+    0 current / velocity mean "driver default"; values beyond the limits are clipped
+    to them, with the reason.
+
+    Parameters
+    ----------
+    theta : float
+        Requested gripper angle [rad].
+    current : float
+        Requested current limit for the move [A]; 0 = default.
+    profile_velocity : float
+        Requested maximum speed [rad/s]; 0 = default.
+    limits : GripperLimits
+        Limits (normally as read back from the servos).
+    default_current, default_profile_velocity : float
+        Defaults [A], [rad/s].
+
+    Returns
+    -------
+    CommandCheck
+        The values to send, or a refusal.
+    """
+    names = {'position': theta, 'max_current': current, 'profile_velocity': profile_velocity}
+    bad = [f'{name}={value} is not finite' for name, value in names.items()
+           if not math.isfinite(value)]
+    if bad:
+        return CommandCheck(False, reasons=bad)
+    if current < 0.0:
+        return CommandCheck(False, reasons=[f'max_current={current} A is negative'])
+    if profile_velocity < 0.0:
+        return CommandCheck(False, reasons=[
+            f'profile_velocity={profile_velocity} rad/s is negative'])
+    check = CommandCheck(True, theta, current or default_current,
+                         profile_velocity or default_profile_velocity)
+    if theta < limits.theta_min or theta > limits.theta_max:
+        check.theta = min(max(theta, limits.theta_min), limits.theta_max)
+        check.reasons.append(f'position {theta:.4f} rad clipped to {check.theta:.4f} rad '
+                             f'(limits {limits.theta_min:.4f}..{limits.theta_max:.4f})')
+    if check.current > limits.current_limit:
+        check.reasons.append(f'max_current {check.current:.3f} A clipped to current_limit '
+                             f'{limits.current_limit:.3f} A')
+        check.current = limits.current_limit
+    if check.profile_velocity > limits.velocity_limit:
+        check.reasons.append(f'profile_velocity {check.profile_velocity:.3f} rad/s clipped '
+                             f'to velocity_limit {limits.velocity_limit:.3f} rad/s')
+        check.profile_velocity = limits.velocity_limit
+    check.clipped = bool(check.reasons)
+    return check
+
+
+@dataclass(frozen=True)
+class FingerState:
+    """One finger at one instant, in SI units along theta (positive = opening).
+
+    Attributes
+    ----------
+    theta : float
+        Angle [rad].
+    velocity : float
+        Angular velocity [rad/s].
+    effort : float
+        Motor current [A] (Present Current x 2.69 mA, sign along theta).
+    temperature : float
+        Internal temperature [degC].
+    input_voltage : float
+        Supply voltage [V].
+    raw_position : int
+        Present Position [pulse].
+    raw_current : int
+        Present Current [2.69 mA units], servo sign.
+    raw_velocity : int
+        Present Velocity [0.229 rpm units], servo sign.
+    """
+
+    theta: float
+    velocity: float
+    effort: float
+    temperature: float
+    input_voltage: float
+    raw_position: int
+    raw_current: int
+    raw_velocity: int
+
+
+@dataclass(frozen=True)
+class ConfigureReport:
+    """What :meth:`Gripper.configure` did.
+
+    Attributes
+    ----------
+    written : dict
+        servo id -> names of the EEPROM items that had to be written.
+    read_back : dict
+        servo id -> {item name: value read back after writing}.
+    torque_was_disabled : list of int
+        Ids whose torque had to be switched off to write EEPROM.
+    """
+
+    written: dict[int, list[str]]
+    read_back: dict[int, dict[str, int]]
+    torque_was_disabled: list[int]
+
+
+class Gripper:
+    """Two finger servos on one bus, through dynamixel-sdk.
+
+    Not thread-safe: call it from one thread (the node's executor thread).
+
+    Parameters
+    ----------
+    config : GripperConfig
+        Validated on construction.
+    """
+
+    def __init__(self, config: GripperConfig):
+        config.validate()
+        self.config = config
+        self.port: PortHandler | None = None
+        self.packet_handler = PacketHandler(PROTOCOL_VERSION)
+        self.limits = config.limits
+        """Limits as read back from the servos (set by :meth:`configure`)."""
+        self._sync_write: GroupSyncWrite | None = None
+        self._state_read: GroupSyncRead | None = None
+        self._error_read: GroupSyncRead | None = None
+
+    # -- port --------------------------------------------------------------------
+    @property
+    def is_open(self) -> bool:
+        """True while the serial port is open."""
+        return self.port is not None and self.port.is_open
+
+    def open(self) -> None:
+        """Open the serial port at the configured baud rate (DynamixelError if impossible)."""
+        port = PortHandler(self.config.port)
+        try:
+            opened = port.openPort()
+        except Exception as error:  # pyserial raises SerialException / OSError
+            raise DynamixelError(f'cannot open {self.config.port}: {error}') from error
+        if not opened:
+            raise DynamixelError(f'cannot open {self.config.port}')
+        if not port.setBaudRate(self.config.baud_rate):
+            port.closePort()
+            raise DynamixelError(f'{self.config.port}: baud rate {self.config.baud_rate} refused')
+        self.port = port
+        handler = self.packet_handler
+        self._sync_write = GroupSyncWrite(port, handler, ct.COMMAND_BLOCK_START,
+                                          ct.COMMAND_BLOCK_LENGTH)
+        self._state_read = GroupSyncRead(port, handler, ct.STATE_BLOCK_START,
+                                         ct.STATE_BLOCK_LENGTH)
+        self._error_read = GroupSyncRead(port, handler, ct.HARDWARE_ERROR_STATUS.address,
+                                         ct.HARDWARE_ERROR_STATUS.size)
+        for finger in self.config.fingers:
+            self._state_read.addParam(finger.servo_id)
+            self._error_read.addParam(finger.servo_id)
+
+    def close(self) -> None:
+        """Close the serial port (torque is left as it is)."""
+        if self.port is not None and self.port.is_open:
+            self.port.closePort()
+        self.port = None
+
+    def _require_port(self) -> PortHandler:
+        if self.port is None or not self.port.is_open:
+            raise DynamixelError('port is not open')
+        return self.port
+
+    # -- single-servo transactions -------------------------------------------------
+    def _check(self, servo_id: int, what: str, result: int, error: int,
+               allow_alert: bool = True) -> None:
+        if result != COMM_SUCCESS:
+            raise DynamixelError(f'servo {servo_id}: {what}: '
+                                 f'{self.packet_handler.getTxRxResult(result)}')
+        number = error & 0x7F
+        if number or (error and not allow_alert):
+            raise DynamixelError(f'servo {servo_id}: {what}: {ct.status_error_text(error)}')
+
+    def read_register(self, servo_id: int, register: ct.Register) -> int:
+        """Read one item of one servo (DynamixelError on failure)."""
+        data, result, error = self.packet_handler.readTxRx(
+            self._require_port(), servo_id, register.address, register.size)
+        self._check(servo_id, f'read {register.name}', result, error)
+        return ct.decode_value(register, data)
+
+    def write_register(self, servo_id: int, register: ct.Register, value: int) -> None:
+        """Write one item of one servo and check its status packet."""
+        result, error = self.packet_handler.writeTxRx(
+            self._require_port(), servo_id, register.address, register.size,
+            list(ct.encode_value(register, value)))
+        self._check(servo_id, f'write {register.name}={value}', result, error)
+
+    def ping(self) -> dict[int, int]:
+        """Ping both servos; returns id -> model number. DynamixelError if one is missing
+        or is not an XM430-W350."""
+        models = {}
+        for finger in self.config.fingers:
+            model, result, error = self.packet_handler.ping(self._require_port(),
+                                                            finger.servo_id)
+            self._check(finger.servo_id, 'ping', result, error)
+            if model != ct.MODEL_NUMBER_XM430_W350:
+                raise DynamixelError(f'servo {finger.servo_id} ({finger.name}) is model '
+                                     f'{model}, expected XM430-W350 '
+                                     f'({ct.MODEL_NUMBER_XM430_W350})')
+            models[finger.servo_id] = model
+        return models
+
+    # -- configuration -------------------------------------------------------------
+    def configure(self) -> ConfigureReport:
+        """Write operating mode 5 and the limits into both servos' EEPROM, read them back.
+
+        Items that already hold the wanted value are not rewritten (EEPROM wear, and a
+        servo that is holding an object keeps its torque if nothing needs writing). If an
+        item must change while torque is on, torque is switched off first (EEPROM is
+        write-protected with torque on) and the id is listed in the report.
+
+        Raises
+        ------
+        DynamixelError
+            On communication failure, a refused write, a read-back mismatch, or a latched
+            hardware error (which only a reboot or power cycle clears).
+        """
+        written: dict[int, list[str]] = {}
+        read_back: dict[int, dict[str, int]] = {}
+        torque_disabled = []
+        for finger in self.config.fingers:
+            servo_id = finger.servo_id
+            errors = self.read_register(servo_id, ct.HARDWARE_ERROR_STATUS)
+            if errors:
+                raise DynamixelError(
+                    f'servo {servo_id} ({finger.name}) has a latched hardware error: '
+                    f'{ct.hardware_error_text(errors)}; remove the cause, then reboot or '
+                    f'power-cycle the servo')
+            targets = self.config.eeprom_targets(finger)
+            present = {register: self.read_register(servo_id, register)
+                       for register in targets}
+            changes = {r: v for r, v in targets.items() if present[r] != v}
+            if changes and self.read_register(servo_id, ct.TORQUE_ENABLE):
+                self.write_register(servo_id, ct.TORQUE_ENABLE, 0)
+                torque_disabled.append(servo_id)
+            for register, value in changes.items():
+                self.write_register(servo_id, register, value)
+            written[servo_id] = [register.name for register in changes]
+            values = {register: self.read_register(servo_id, register) for register in targets}
+            mismatched = [f'{r.name}: wrote {targets[r]}, read {v}'
+                          for r, v in values.items() if v != targets[r]]
+            if mismatched:
+                raise DynamixelError(f'servo {servo_id} read-back mismatch: '
+                                     + '; '.join(mismatched))
+            read_back[servo_id] = {register.name: value for register, value in values.items()}
+        self.limits = self.limits_from_registers(read_back)
+        return ConfigureReport(written, read_back, torque_disabled)
+
+    def limits_from_registers(self, read_back: dict[int, dict[str, int]]) -> GripperLimits:
+        """Gripper limits implied by the registers read back (the tightest of both servos).
+
+        The theta range is the intersection of both fingers' Min/Max Position Limit
+        mapped back through zero and direction, so the driver clips to exactly what is in
+        the servos' EEPROM.
+        """
+        theta_low, theta_high = -math.inf, math.inf
+        current, velocity, temperature = math.inf, math.inf, 100
+        for finger in self.config.fingers:
+            values = read_back[finger.servo_id]
+            ends = sorted(finger.raw_to_theta(values[name]) + 0.0
+                          for name in (ct.MIN_POSITION_LIMIT.name, ct.MAX_POSITION_LIMIT.name))
+            theta_low, theta_high = max(theta_low, ends[0]), min(theta_high, ends[1])
+            current = min(current, units.current_units_to_amperes(
+                values[ct.CURRENT_LIMIT.name]))
+            velocity = min(velocity, units.velocity_units_to_radians_per_second(
+                values[ct.VELOCITY_LIMIT.name]))
+            temperature = min(temperature, values[ct.TEMPERATURE_LIMIT.name])
+        return GripperLimits(theta_low, theta_high, current, velocity, temperature)
+
+    # -- torque ---------------------------------------------------------------------
+    def torque_enabled(self) -> dict[int, bool]:
+        """id -> Torque Enable(64)."""
+        return {f.servo_id: bool(self.read_register(f.servo_id, ct.TORQUE_ENABLE))
+                for f in self.config.fingers}
+
+    def set_torque(self, enabled: bool) -> None:
+        """Switch both servos' torque on or off (checked per servo)."""
+        for finger in self.config.fingers:
+            self.write_register(finger.servo_id, ct.TORQUE_ENABLE, int(enabled))
+        if enabled:
+            # A servo with a latched shutdown error silently keeps torque off.
+            refused = [i for i, on in self.torque_enabled().items() if not on]
+            if refused:
+                raise DynamixelError(f'servo(s) {refused} refused torque on (hardware error '
+                                     f'latched; reboot required)')
+
+    def hold_present_position(self) -> CommandCheck:
+        """Command each finger to stay where it is (before torque on: no jump)."""
+        state = self.read_state()
+        by_name = {finger.name: state[finger.name] for finger in self.config.fingers}
+        raw = {finger.servo_id: by_name[finger.name].raw_position
+               for finger in self.config.fingers}
+        check = CommandCheck(True, sum(s.theta for s in by_name.values()) / 2.0,
+                             self.config.default_current,
+                             self.config.default_profile_velocity)
+        self._send(check, raw)
+        return check
+
+    # -- command and state -------------------------------------------------------------
+    def check(self, theta: float, current: float, profile_velocity: float) -> CommandCheck:
+        """:func:`check_command` against the limits read back from the servos."""
+        return check_command(theta, current, profile_velocity, self.limits,
+                             min(self.config.default_current, self.limits.current_limit),
+                             min(self.config.default_profile_velocity,
+                                 self.limits.velocity_limit))
+
+    def command(self, theta: float, current: float = 0.0,
+                profile_velocity: float = 0.0) -> CommandCheck:
+        """Validate and send one command to both fingers in ONE sync write packet.
+
+        Parameters
+        ----------
+        theta : float
+            Gripper angle [rad].
+        current : float
+            Goal Current [A] (0 = default).
+        profile_velocity : float
+            Profile Velocity [rad/s] (0 = default).
+
+        Returns
+        -------
+        CommandCheck
+            What was sent (or why nothing was sent: ``accepted`` False).
+        """
+        check = self.check(theta, current, profile_velocity)
+        if check.accepted:
+            raw = {f.servo_id: f.theta_to_raw(check.theta) for f in self.config.fingers}
+            self._send(check, raw)
+        return check
+
+    def _send(self, check: CommandCheck, raw_positions: dict[int, int]) -> None:
+        sync_write = self._sync_write
+        if sync_write is None:
+            raise DynamixelError('port is not open')
+        current_units = min(units.amperes_to_current_units(check.current),
+                            units.amperes_to_current_units(self.limits.current_limit))
+        velocity_units = min(units.radians_per_second_to_velocity_units(
+            check.profile_velocity), units.radians_per_second_to_velocity_units(
+            self.limits.velocity_limit))
+        sync_write.clearParam()
+        for finger in self.config.fingers:
+            block = (ct.encode_value(ct.GOAL_CURRENT, current_units)
+                     + ct.encode_value(ct.GOAL_VELOCITY, 0)
+                     + ct.encode_value(ct.PROFILE_ACCELERATION,
+                                       self.config.profile_acceleration)
+                     + ct.encode_value(ct.PROFILE_VELOCITY, velocity_units)
+                     + ct.encode_value(ct.GOAL_POSITION, raw_positions[finger.servo_id]))
+            sync_write.addParam(finger.servo_id, list(block))
+        result = sync_write.txPacket()
+        if result != COMM_SUCCESS:
+            raise DynamixelError(f'sync write: {self.packet_handler.getTxRxResult(result)}')
+
+    def read_state(self) -> dict[str, FingerState]:
+        """One sync read of both fingers; ``{'left': FingerState, 'right': FingerState}``.
+
+        Raises DynamixelError if any servo does not answer (no value is ever invented).
+        """
+        reader = self._state_read
+        if reader is None:
+            raise DynamixelError('port is not open')
+        result = reader.txRxPacket()
+        if result != COMM_SUCCESS:
+            raise DynamixelError(f'sync read of state: '
+                                 f'{self.packet_handler.getTxRxResult(result)}')
+        states = {}
+        for finger in self.config.fingers:
+            data = bytes(reader.data_dict[finger.servo_id])
+            if len(data) != ct.STATE_BLOCK_LENGTH:
+                raise DynamixelError(f'servo {finger.servo_id}: short state block')
+
+            def item(register: ct.Register, block: bytes = data) -> int:
+                return ct.decode_value(register, block[register.address - ct.STATE_BLOCK_START:])
+
+            raw_position = item(ct.PRESENT_POSITION)
+            raw_velocity = item(ct.PRESENT_VELOCITY)
+            raw_current = item(ct.PRESENT_CURRENT)
+            states[finger.name] = FingerState(
+                theta=finger.raw_to_theta(raw_position),
+                velocity=finger.direction * units.velocity_units_to_radians_per_second(
+                    raw_velocity),
+                effort=finger.direction * units.current_units_to_amperes(raw_current),
+                temperature=float(item(ct.PRESENT_TEMPERATURE)),
+                input_voltage=units.voltage_units_to_volts(item(ct.PRESENT_INPUT_VOLTAGE)),
+                raw_position=raw_position,
+                raw_current=raw_current,
+                raw_velocity=raw_velocity,
+            )
+        return states
+
+    def read_hardware_errors(self) -> dict[int, int]:
+        """One sync read of Hardware Error Status(70): id -> error bits."""
+        reader = self._error_read
+        if reader is None:
+            raise DynamixelError('port is not open')
+        result = reader.txRxPacket()
+        if result != COMM_SUCCESS:
+            raise DynamixelError(f'sync read of hardware error status: '
+                                 f'{self.packet_handler.getTxRxResult(result)}')
+        return {f.servo_id: bytes(reader.data_dict[f.servo_id])[0] for f in self.config.fingers}
+
+    def shutdown(self, release: bool) -> None:
+        """End of use: keep holding the grip (torque on) unless ``release``; close the port."""
+        try:
+            if release and self.is_open:
+                self.set_torque(False)
+        finally:
+            self.close()
