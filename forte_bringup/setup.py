@@ -25,7 +25,10 @@ setup(
     zip_safe=False,
     maintainer='FORTE maintainers',
     maintainer_email='maintainers@forte-gripper.org',
-    description='FORTE launch files (hardware, simulation, bag replay), parameter files, bag recording, the demo and the evaluation harness.',
+    description=(
+        'FORTE launch files (hardware, simulation, bag replay), parameter files, '
+        'bag recording, the demo and the evaluation harness.'
+    ),
     license='Apache-2.0',
     extras_require={'test': ['pytest']},
     entry_points={

@@ -1,1 +1,1 @@
-"""FORTE launch files (hardware, simulation, bag replay), parameter files, bag recording, the demo and the evaluation harness."""
+"""FORTE bringup: launch files, parameter files, bag recording, demo, evaluation."""
