@@ -1,0 +1,615 @@
+"""FORTE serial protocol v1 (binary frames) and the legacy ASCII ``T1:..,T6:..`` lines.
+
+Pure Python, no rclpy. The byte layout, units and counting rules are documented in
+``docs/firmware.md``; the C core in ``firmware/core`` implements the same protocol and both
+are checked against the shared vectors in ``firmware/test_vectors``.
+
+Frame (both directions, little-endian)::
+
+    A5 5A | version=1 | type | length N | payload (N bytes) | CRC-16/CCITT-FALSE (2 bytes)
+
+The CRC covers version, type, length and payload (initial value 0xFFFF, polynomial
+0x1021, check value 0x29B1) and equals ``binascii.crc_hqx(data, 0xFFFF)``.
+
+Main pieces
+-----------
+- :class:`FrameDecoder`: resynchronising stream decoder of binary frames, counts corrupt
+  frames and discarded bytes, emits :data:`CORRUPT` markers in stream order.
+- :class:`AsciiLineDecoder`: strict parser of the paper authors' ASCII lines.
+- :class:`SequenceTracker`: unwraps 32-bit sequence numbers and counts gaps.
+- :class:`StreamAssembler`: turns decoded samples into gap-free batches (never invents a
+  sample; a batch ends at every gap, corrupt frame and session change).
+- Encoders for every frame type (used by the emulated device and the tests).
+"""
+from __future__ import annotations
+
+import binascii
+import math
+import struct
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+SYNC0 = 0xA5
+SYNC1 = 0x5A
+PROTOCOL_VERSION = 1
+#: Bytes every frame starts with; the decoder hunts for them.
+SIGNATURE = bytes([SYNC0, SYNC1, PROTOCOL_VERSION])
+HEADER_SIZE = 5
+CRC_SIZE = 2
+CHANNEL_COUNT = 6
+#: Reading scale: 1024 counts = 1.0 = +1 inH2O; readings are clipped to +-1024.
+COUNTS_PER_FULL_SCALE = 1024
+#: Channel order of the contract (docs/contracts.md).
+CHANNEL_NAMES = ('left_distal', 'left_middle', 'left_root',
+                 'right_distal', 'right_middle', 'right_root')
+SEQUENCE_MODULUS = 1 << 32
+OVERRUN_MODULUS = 1 << 16
+
+FLAG_SATURATED = 0x01
+FLAG_OVERRUN = 0x02
+FLAG_SESSION_START = 0x04
+
+
+class FrameType(IntEnum):
+    """Frame types (byte 3 of a frame)."""
+
+    SAMPLE = 0x01
+    COMMAND = 0x02
+    ACK = 0x03
+    INFO = 0x04
+
+
+class Command(IntEnum):
+    """Host commands."""
+
+    START = 0x01
+    STOP = 0x02
+    IDENTIFY = 0x03
+    SET_RATE = 0x04
+
+
+class Status(IntEnum):
+    """Acknowledgement status."""
+
+    OK = 0
+    UNKNOWN_COMMAND = 1
+    BAD_ARGUMENT = 2
+    BUSY = 3
+
+
+_SAMPLE_STRUCT = struct.Struct('<IQ6hHBB')
+_COMMAND_STRUCT = struct.Struct('<BBH')
+_ACK_STRUCT = struct.Struct('<BBBBI')
+_INFO_STRUCT = struct.Struct('<BBBBBBHHHQ')
+#: Payload size [bytes] of each frame type.
+PAYLOAD_SIZES = {
+    FrameType.SAMPLE: _SAMPLE_STRUCT.size,
+    FrameType.COMMAND: _COMMAND_STRUCT.size,
+    FrameType.ACK: _ACK_STRUCT.size,
+    FrameType.INFO: _INFO_STRUCT.size,
+}
+SAMPLE_FRAME_SIZE = HEADER_SIZE + PAYLOAD_SIZES[FrameType.SAMPLE] + CRC_SIZE
+_PAYLOAD_SIZE_BY_BYTE = {int(k): v for k, v in PAYLOAD_SIZES.items()}
+
+
+@dataclass(frozen=True, slots=True)
+class Sample:
+    """One 6-channel scan as sent by the device.
+
+    Attributes
+    ----------
+    sequence : int
+        Scan index since START, modulo 2**32 [count].
+    time_us : int
+        Device clock at the scan instant [us].
+    values : tuple of 6 int
+        Readings in counts, 1024 = +1.0 = +1 inH2O, channel order :data:`CHANNEL_NAMES`.
+    overruns : int
+        Samples the device dropped since START, modulo 2**16 [count].
+    flags : int
+        ``FLAG_*`` bits.
+    saturated : int
+        Bit k set if channel k was clipped.
+    """
+
+    sequence: int
+    time_us: int
+    values: tuple[int, ...]
+    overruns: int = 0
+    flags: int = 0
+    saturated: int = 0
+
+    def normalised(self) -> tuple[float, ...]:
+        """Readings on the -1..1 scale (+1 = +1 inH2O)."""
+        return tuple(v / COUNTS_PER_FULL_SCALE for v in self.values)
+
+
+@dataclass(frozen=True, slots=True)
+class CommandFrame:
+    """A host command (``command`` is a :class:`Command` code)."""
+
+    command: int
+    token: int
+    argument: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Ack:
+    """Acknowledgement of one command; ``value`` is the rate [Hz] or, for STOP, the
+    number of scans in the session."""
+
+    command: int
+    token: int
+    status: int
+    value: int
+
+
+@dataclass(frozen=True, slots=True)
+class Info:
+    """Device identification (answer to IDENTIFY, after its ACK)."""
+
+    protocol_version: int
+    firmware_version: tuple[int, int, int]
+    channel_count: int
+    adc_bits: int
+    counts_per_full_scale: int
+    rate_hz: int
+    ring_capacity: int
+    device_id: int
+
+
+@dataclass(frozen=True, slots=True)
+class CorruptFrame:
+    """Marker in the decoder output: a candidate frame was rejected here."""
+
+    reason: str
+
+
+#: Shared markers (the decoder output holds these instances).
+CORRUPT_CRC = CorruptFrame('crc')
+CORRUPT_HEADER = CorruptFrame('header')
+CORRUPT_LINE = CorruptFrame('line')
+
+Frame = Sample | CommandFrame | Ack | Info
+
+
+def crc16(data: bytes | bytearray | memoryview) -> int:
+    """CRC-16/CCITT-FALSE of ``data`` (check value of b'123456789' is 0x29B1)."""
+    return binascii.crc_hqx(data, 0xFFFF)
+
+
+def _frame(frame_type: int, payload: bytes) -> bytes:
+    body = bytes((PROTOCOL_VERSION, frame_type, len(payload))) + payload
+    return bytes((SYNC0, SYNC1)) + body + struct.pack('<H', crc16(body))
+
+
+def encode_sample(sample: Sample) -> bytes:
+    """Encode a :class:`Sample` into a complete frame (35 bytes)."""
+    return _frame(FrameType.SAMPLE, _SAMPLE_STRUCT.pack(
+        sample.sequence % SEQUENCE_MODULUS, sample.time_us, *sample.values,
+        sample.overruns % OVERRUN_MODULUS, sample.flags, sample.saturated))
+
+
+def encode_command(command: int, token: int, argument: int = 0) -> bytes:
+    """Encode a host command frame (11 bytes)."""
+    return _frame(FrameType.COMMAND, _COMMAND_STRUCT.pack(command, token & 0xFF, argument))
+
+
+def encode_ack(ack: Ack) -> bytes:
+    """Encode an acknowledgement frame (15 bytes)."""
+    return _frame(FrameType.ACK, _ACK_STRUCT.pack(ack.command, ack.token, ack.status, 0,
+                                                  ack.value))
+
+
+def encode_info(info: Info) -> bytes:
+    """Encode an identification frame (27 bytes)."""
+    major, minor, patch = info.firmware_version
+    return _frame(FrameType.INFO, _INFO_STRUCT.pack(
+        info.protocol_version, major, minor, patch, info.channel_count, info.adc_bits,
+        info.counts_per_full_scale, info.rate_hz, info.ring_capacity, info.device_id))
+
+
+def _parse(frame_type: int, buffer: bytearray, offset: int) -> Frame:
+    if frame_type == FrameType.SAMPLE:
+        f = _SAMPLE_STRUCT.unpack_from(buffer, offset)
+        return Sample(f[0], f[1], f[2:8], f[8], f[9], f[10])
+    if frame_type == FrameType.ACK:
+        f = _ACK_STRUCT.unpack_from(buffer, offset)
+        return Ack(f[0], f[1], f[2], f[4])
+    if frame_type == FrameType.COMMAND:
+        return CommandFrame(*_COMMAND_STRUCT.unpack_from(buffer, offset))
+    f = _INFO_STRUCT.unpack_from(buffer, offset)
+    return Info(f[0], (f[1], f[2], f[3]), f[4], f[5], f[6], f[7], f[8], f[9])
+
+
+class FrameDecoder:
+    """Resynchronising stream decoder of binary frames.
+
+    Every input byte ends up either in a valid frame or in :attr:`discarded_bytes`
+    (bytes of an incomplete candidate at the end wait in :attr:`pending_bytes`).
+    A candidate starts wherever :data:`SIGNATURE` appears; a candidate with a wrong
+    type/length or CRC is a corrupt frame and hunting resumes one byte after its start,
+    so a good frame hidden inside rejected bytes is still found.
+
+    Attributes
+    ----------
+    frames : int
+        Valid frames decoded [count].
+    corrupt_frames : int
+        Candidates rejected for header or CRC errors [count].
+    discarded_bytes : int
+        Bytes not part of any valid frame [count].
+    """
+
+    def __init__(self) -> None:
+        self._buffer = bytearray()
+        self.frames = 0
+        self.corrupt_frames = 0
+        self.discarded_bytes = 0
+
+    @property
+    def pending_bytes(self) -> int:
+        """Bytes held back as the start of a possibly incomplete frame."""
+        return len(self._buffer)
+
+    def reset(self) -> None:
+        """Forget a partial frame (e.g. after reconnecting); counters are kept."""
+        self._buffer.clear()
+
+    def feed(self, data: bytes | bytearray | memoryview) -> list[Frame | CorruptFrame]:
+        """Decode ``data`` appended to the stream.
+
+        Returns
+        -------
+        list
+            Decoded frames and :class:`CorruptFrame` markers, in stream order.
+        """
+        buffer = self._buffer
+        buffer += data
+        size = len(buffer)
+        out: list[Frame | CorruptFrame] = []
+        position = 0
+        find = buffer.find
+        while True:
+            start = find(SIGNATURE, position)
+            if start < 0:
+                keep = 0
+                if size - position >= 2 and buffer[size - 2] == SYNC0 and buffer[size - 1] == SYNC1:
+                    keep = 2
+                elif size - position >= 1 and buffer[size - 1] == SYNC0:
+                    keep = 1
+                self.discarded_bytes += size - position - keep
+                position = size - keep
+                break
+            self.discarded_bytes += start - position
+            if size - start < HEADER_SIZE:
+                position = start
+                break
+            payload_size = _PAYLOAD_SIZE_BY_BYTE.get(buffer[start + 3])
+            if payload_size is None or buffer[start + 4] != payload_size:
+                self.corrupt_frames += 1
+                self.discarded_bytes += 1
+                out.append(CORRUPT_HEADER)
+                position = start + 1
+                continue
+            end = start + HEADER_SIZE + payload_size + CRC_SIZE
+            if end > size:
+                position = start
+                break
+            received = buffer[end - 2] | (buffer[end - 1] << 8)
+            if binascii.crc_hqx(buffer[start + 2:end - 2], 0xFFFF) != received:
+                self.corrupt_frames += 1
+                self.discarded_bytes += 1
+                out.append(CORRUPT_CRC)
+                position = start + 1
+                continue
+            out.append(_parse(buffer[start + 3], buffer, start + HEADER_SIZE))
+            self.frames += 1
+            position = end
+        del buffer[:position]
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class AsciiSample:
+    """One line of the legacy ASCII protocol: 6 readings on the -1..1 scale."""
+
+    values: tuple[float, ...]
+
+
+class AsciiLineDecoder:
+    """Strict parser of the legacy ``T1:<v>,T2:<v>,...,T6:<v>\\n`` lines.
+
+    A line is accepted only if it has exactly the keys T1..T6 in this order and six finite
+    values in [-1, 1]; anything else is a corrupt line (counted, dropped, never replaced by
+    a previous sample). Lines longer than ``max_line_bytes`` are corrupt. After
+    :meth:`reset` (connect) the stream may start in the middle of a line: if the first
+    line is malformed it is discarded without being counted as corrupt.
+
+    Attributes
+    ----------
+    lines : int
+        Lines accepted [count].
+    corrupt_lines : int
+        Lines rejected [count].
+    discarded_bytes : int
+        Bytes of rejected lines and of the partial first line [count].
+    """
+
+    def __init__(self, max_line_bytes: int = 256) -> None:
+        self._buffer = bytearray()
+        self._skip_first_line = True
+        self.max_line_bytes = max_line_bytes
+        self.lines = 0
+        self.corrupt_lines = 0
+        self.discarded_bytes = 0
+
+    def reset(self) -> None:
+        """Forget a partial line; the next bytes may start mid-line."""
+        self._buffer.clear()
+        self._skip_first_line = True
+
+    @staticmethod
+    def parse_line(line: bytes) -> tuple[float, ...] | None:
+        """Parse one line without its newline; ``None`` if it is malformed."""
+        fields = line.rstrip(b'\r').split(b',')
+        if len(fields) != CHANNEL_COUNT:
+            return None
+        values = []
+        for index, field in enumerate(fields, start=1):
+            key, separator, text = field.partition(b':')
+            if separator != b':' or key.strip() != b'T%d' % index:
+                return None
+            try:
+                value = float(text)
+            except ValueError:
+                return None
+            if not math.isfinite(value) or value < -1.0 or value > 1.0:
+                return None
+            values.append(value)
+        return tuple(values)
+
+    def feed(self, data: bytes | bytearray | memoryview) -> list[AsciiSample | CorruptFrame]:
+        """Decode ``data``; returns samples and :data:`CORRUPT_LINE` markers in order."""
+        buffer = self._buffer
+        buffer += data
+        out: list[AsciiSample | CorruptFrame] = []
+        start = 0
+        while True:
+            end = buffer.find(b'\n', start)
+            if end < 0:
+                break
+            line = bytes(buffer[start:end])
+            start = end + 1
+            first_line = self._skip_first_line
+            self._skip_first_line = False
+            values = self.parse_line(line) if len(line) <= self.max_line_bytes else None
+            if values is None and first_line:
+                self.discarded_bytes += len(line) + 1
+            elif values is None:
+                self.corrupt_lines += 1
+                self.discarded_bytes += len(line) + 1
+                out.append(CORRUPT_LINE)
+            else:
+                self.lines += 1
+                out.append(AsciiSample(values))
+        del buffer[:start]
+        if len(buffer) > self.max_line_bytes:
+            # a line without newline that is already too long: corrupt, drop it now
+            if not self._skip_first_line:
+                self.corrupt_lines += 1
+                out.append(CORRUPT_LINE)
+            self._skip_first_line = True  # the rest of this line is discarded up to '\n'
+            self.discarded_bytes += len(buffer)
+            buffer.clear()
+        return out
+
+
+def format_ascii_line(values: tuple[float, ...] | list[float]) -> bytes:
+    """Format readings as one legacy ASCII line; ``repr`` keeps every float exact."""
+    return (','.join(f'T{k + 1}:{float(v)!r}' for k, v in enumerate(values)) + '\n').encode()
+
+
+def normalise_adc_code(code: int, zero_code: int, half_span_code: int) -> tuple[int, bool]:
+    """Map a raw ADC code to protocol counts exactly as the firmware does.
+
+    ``round((code - zero) * 1024 / half_span)`` with ties away from zero, clipped to
+    [-1024, 1024].
+
+    Returns
+    -------
+    tuple of (int, bool)
+        Reading [counts] and whether it was clipped.
+    """
+    half_span = half_span_code if half_span_code > 0 else 1
+    numerator = (code - zero_code) * COUNTS_PER_FULL_SCALE
+    sign = -1 if numerator < 0 else 1
+    value = sign * ((2 * abs(numerator) + half_span) // (2 * half_span))
+    if value > COUNTS_PER_FULL_SCALE:
+        return COUNTS_PER_FULL_SCALE, True
+    if value < -COUNTS_PER_FULL_SCALE:
+        return -COUNTS_PER_FULL_SCALE, True
+    return value, False
+
+
+class SequenceTracker:
+    """Unwrap 32-bit device sequence numbers and count the frames lost between them.
+
+    The unwrapped sequence is monotonic for the life of the tracker: after a new session
+    (START acknowledged, reconnect, or the device sequence jumping backwards, i.e. a
+    device restart) it continues at the previous value + 1 and nothing is counted as
+    dropped across the session boundary.
+
+    Attributes
+    ----------
+    dropped_frames : int
+        Sequence numbers skipped inside sessions [count].
+    sessions : int
+        Sessions seen (1 after the first frame) [count].
+    sequence_resets : int
+        Sessions started because the sequence jumped backwards [count].
+    """
+
+    def __init__(self) -> None:
+        self.dropped_frames = 0
+        self.sessions = 0
+        self.sequence_resets = 0
+        self._last_device: int | None = None
+        self._last_unwrapped = -1
+        self._new_session = True
+
+    def start_session(self) -> None:
+        """The next frame starts a new session (no gap is counted before it)."""
+        self._new_session = True
+
+    def update(self, sequence: int) -> tuple[int, int, bool]:
+        """Account for one received sequence number.
+
+        Returns
+        -------
+        tuple of (int, int, bool)
+            Unwrapped sequence, frames lost right before it, whether it starts a session.
+        """
+        if self._new_session or self._last_device is None:
+            self._new_session = False
+            self.sessions += 1
+            gap = 0
+            new_session = True
+        else:
+            gap = (sequence - self._last_device - 1) % SEQUENCE_MODULUS
+            new_session = False
+            if gap >= SEQUENCE_MODULUS // 2:  # backwards or repeated: the device restarted
+                self.sessions += 1
+                self.sequence_resets += 1
+                gap = 0
+                new_session = True
+        self._last_device = sequence
+        self._last_unwrapped += 1 + gap
+        self.dropped_frames += gap
+        return self._last_unwrapped, gap, new_session
+
+
+@dataclass
+class Batch:
+    """Consecutive samples without any gap.
+
+    Attributes
+    ----------
+    first_sequence : int
+        Unwrapped sequence of the first row.
+    device_time_us : int
+        Device time of the first row [us] (binary) or the host-derived time of the first
+        row [us] (ASCII, see the caveat in docs/serial_driver.md).
+    values : numpy.ndarray
+        Shape (n, 6), float64, normalised readings.
+    """
+
+    first_sequence: int
+    device_time_us: int
+    values: np.ndarray
+
+
+class StreamAssembler:
+    """Build gap-free batches from decoded samples; never invents a sample.
+
+    A batch is emitted when it holds ``batch_size`` rows, and ended early at every
+    sequence gap, corrupt-frame marker, new session, or :meth:`flush`.
+
+    Parameters
+    ----------
+    batch_size : int
+        Rows per full batch.
+
+    Attributes
+    ----------
+    tracker : SequenceTracker
+        Drop accounting (binary mode).
+    samples : int
+        Samples placed into batches [count].
+    corrupt_frames : int
+        Corrupt markers seen [count].
+    device_overruns : int
+        Samples the device reported it dropped itself (host too slow) [count].
+    """
+
+    def __init__(self, batch_size: int) -> None:
+        if batch_size < 1:
+            raise ValueError(f'batch_size must be >= 1, got {batch_size}')
+        self.batch_size = batch_size
+        self.tracker = SequenceTracker()
+        self.samples = 0
+        self.corrupt_frames = 0
+        self.device_overruns = 0
+        self._last_overruns: int | None = None
+        self._rows: list[tuple[float, ...]] = []
+        self._first_sequence = 0
+        self._first_time_us = 0
+        self._ascii_sequence = 0
+        self._ready: list[Batch] = []
+
+    def start_session(self) -> None:
+        """End the current batch; the next sample begins a new device session."""
+        self._end_batch()
+        self.tracker.start_session()
+        self._last_overruns = None
+
+    def _end_batch(self) -> None:
+        if self._rows:
+            self._ready.append(Batch(self._first_sequence, self._first_time_us,
+                                     np.array(self._rows, dtype=np.float64)))
+            self._rows = []
+
+    def _append(self, sequence: int, time_us: int, values: tuple[float, ...]) -> None:
+        if not self._rows:
+            self._first_sequence = sequence
+            self._first_time_us = time_us
+        self._rows.append(values)
+        self.samples += 1
+        if len(self._rows) >= self.batch_size:
+            self._end_batch()
+
+    def add_sample(self, sample: Sample) -> None:
+        """Add one binary sample (in stream order)."""
+        unwrapped, gap, new_session = self.tracker.update(sample.sequence)
+        if gap or new_session:
+            self._end_batch()
+        if new_session:
+            self._last_overruns = None
+        if self._last_overruns is not None:
+            self.device_overruns += (sample.overruns - self._last_overruns) % OVERRUN_MODULUS
+        else:
+            self.device_overruns += sample.overruns if new_session else 0
+        self._last_overruns = sample.overruns
+        self._append(unwrapped, sample.time_us,
+                     tuple(v / COUNTS_PER_FULL_SCALE for v in sample.values))
+
+    def add_ascii_sample(self, sample: AsciiSample, time_us: int) -> None:
+        """Add one ASCII sample with its host-derived time [us]; sequence is host-counted."""
+        self._append(self._ascii_sequence, time_us, sample.values)
+        self._ascii_sequence += 1
+
+    def add_corrupt(self) -> None:
+        """A corrupt frame or line was seen: end the batch."""
+        self.corrupt_frames += 1
+        self._end_batch()
+
+    def flush(self) -> None:
+        """End the current (partial) batch now."""
+        self._end_batch()
+
+    def take_batches(self) -> list[Batch]:
+        """Completed batches since the last call, oldest first."""
+        ready, self._ready = self._ready, []
+        return ready
+
+    @property
+    def dropped_frames(self) -> int:
+        """Frames lost by sequence gaps (device overruns included) [count]."""
+        return self.tracker.dropped_frames
+
+    @property
+    def pending_rows(self) -> int:
+        """Rows of the batch being filled."""
+        return len(self._rows)
