@@ -610,10 +610,10 @@ class Gripper:
             raw_velocity = item(ct.PRESENT_VELOCITY)
             raw_current = item(ct.PRESENT_CURRENT)
             states[finger.name] = FingerState(
-                theta=finger.raw_to_theta(raw_position),
+                theta=finger.raw_to_theta(raw_position) + 0.0,  # + 0.0: no negative zero
                 velocity=finger.direction * units.velocity_units_to_radians_per_second(
-                    raw_velocity),
-                effort=finger.direction * units.current_units_to_amperes(raw_current),
+                    raw_velocity) + 0.0,
+                effort=finger.direction * units.current_units_to_amperes(raw_current) + 0.0,
                 temperature=float(item(ct.PRESENT_TEMPERATURE)),
                 input_voltage=units.voltage_units_to_volts(item(ct.PRESENT_INPUT_VOLTAGE)),
                 raw_position=raw_position,

@@ -1,0 +1,491 @@
+"""Lifecycle node driving the two XM430-W350 finger servos of the FORTE gripper.
+
+Thin ROS shell over :mod:`forte_driver.dynamixel.gripper` (which holds all the protocol
+and unit logic):
+
+* configure: open the port, ping both servos, write Operating Mode 5 (current-based
+  position) and the limits into each servo's EEPROM, read them back and verify;
+* activate: command each finger to hold where it is, then switch torque on; start
+  publishing ``joint_states`` at ``publish_rate``;
+* ``gripper/command`` (forte_msgs/ServoCommand): validated (non-finite or negative values
+  refused, out-of-range values clipped, each with a logged reason), then sent to both
+  servos in ONE sync write packet;
+* ``/diagnostics``: Hardware Error Status, temperature, input voltage, torque and the
+  command/communication counters of each servo, at ``diagnostics_rate`` while configured;
+* deactivate / shutdown: the servos keep holding the grip (torque stays on) unless
+  ``release_on_shutdown`` is true: a dropped object is not a safe default.
+
+Hardware parameters can be changed only while unconfigured (cleanup, set, configure).
+Set ``autostart:=true`` to configure and activate at start without a lifecycle manager.
+"""
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    SetParametersResult,
+)
+from rclpy.duration import Duration
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+
+from forte_driver.dynamixel import control_table as ct
+from forte_driver.dynamixel.gripper import (
+    DynamixelError,
+    FingerConfig,
+    FingerState,
+    Gripper,
+    GripperConfig,
+    GripperLimits,
+)
+from forte_msgs.msg import ServoCommand
+
+LEFT_JOINT = 'forte_left_finger_joint'
+RIGHT_JOINT = 'forte_right_finger_joint'
+TEMPERATURE_WARNING_MARGIN_C = 5.0
+"""Diagnostics warn when a servo is this close to its Temperature Limit [degC]."""
+READ_FAILURES_FOR_ERROR = 3
+"""Consecutive failed state reads after which diagnostics report an error."""
+
+#: Parameters that describe the hardware; changeable only while unconfigured.
+HARDWARE_PARAMETERS = (
+    'port', 'baud_rate', 'right_id', 'left_id', 'right_zero_position', 'left_zero_position',
+    'right_direction', 'left_direction', 'theta_min', 'theta_max', 'current_limit',
+    'velocity_limit', 'temperature_limit', 'profile_acceleration', 'publish_rate',
+    'diagnostics_rate',
+)
+
+
+def _reliable(depth: int) -> QoSProfile:
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
+                      reliability=ReliabilityPolicy.RELIABLE)
+
+
+def _float_range(low: float, high: float) -> list[FloatingPointRange]:
+    return [FloatingPointRange(from_value=low, to_value=high, step=0.0)]
+
+
+def _int_range(low: int, high: int, step: int = 1) -> list[IntegerRange]:
+    return [IntegerRange(from_value=low, to_value=high, step=step)]
+
+
+class GripperDriverNode(LifecycleNode):
+    """The FORTE gripper driver (lifecycle node ``gripper_driver``)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__('gripper_driver', **kwargs)
+        self._declare_parameters()
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.gripper: Gripper | None = None
+        self._configured = False
+        self._active = False
+        self._command_subscription = None
+        self._joint_publisher = None
+        self._diagnostics_publisher = self.create_publisher(
+            DiagnosticArray, '/diagnostics', _reliable(10))
+        self._state_timer = None
+        self._diagnostics_timer = None
+        self._last_state: dict[str, FingerState] | None = None
+        self._last_state_time = 0.0
+        self._last_stamp = self.get_clock().now()
+        self._hardware_errors: dict[int, int] = {}
+        self._torque: dict[int, bool] = {}
+        self.counters = {
+            'commands_sent': 0, 'commands_clipped': 0, 'commands_refused': 0,
+            'commands_ignored_inactive': 0, 'state_reads': 0, 'state_read_failures': 0,
+            'consecutive_read_failures': 0, 'write_failures': 0,
+        }
+        self._last_error = ''
+        if self.get_parameter('autostart').value:
+            if self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
+                self.trigger_activate()
+
+    # -- parameters ------------------------------------------------------------------
+    def _declare_parameters(self) -> None:
+        hardware = ' (hardware parameter: change it only while unconfigured)'
+        declare = self.declare_parameter
+        declare('port', '/dev/ttyUSB0', ParameterDescriptor(
+            description='serial device of the U2D2 / DYNAMIXEL bus (use a udev name)'
+                        + hardware))
+        declare('baud_rate', 4_000_000, ParameterDescriptor(
+            description='bus speed [bit/s]; must equal the servos\' Baud Rate register; one of '
+                        f'{sorted(ct.REGISTER_BY_BAUD_RATE)}' + hardware,
+            integer_range=_int_range(9_600, 4_500_000)))
+        for side, servo_id, direction in (('right', 1, 1), ('left', 2, -1)):
+            declare(f'{side}_id', servo_id, ParameterDescriptor(
+                description=f'DYNAMIXEL id of the {side} finger servo' + hardware,
+                integer_range=_int_range(0, 252)))
+            declare(f'{side}_zero_position', 2048, ParameterDescriptor(
+                description=f'raw position [pulse, 0.088 deg] of the {side} servo when the '
+                            'gripper is fully closed (theta = 0)' + hardware,
+                integer_range=_int_range(0, 4095)))
+            declare(f'{side}_direction', direction, ParameterDescriptor(
+                description=f'+1 if the {side} servo\'s raw position grows as theta opens, '
+                            '-1 if mirrored' + hardware,
+                integer_range=_int_range(-1, 1, 2)))
+        declare('theta_min', 0.0, ParameterDescriptor(
+            description='smallest gripper angle [rad] (0 = fully closed); written to the '
+                        'servos\' position limit registers' + hardware,
+            floating_point_range=_float_range(-math.pi, math.pi)))
+        declare('theta_max', 1.0, ParameterDescriptor(
+            description='largest gripper angle [rad] (open); written to the servos\' position '
+                        'limit registers' + hardware,
+            floating_point_range=_float_range(-math.pi, math.pi)))
+        declare('current_limit', 1.0, ParameterDescriptor(
+            description='Current Limit written to both servos [A] (2.69 mA units, max '
+                        '3.209 A); the servos refuse larger goal currents' + hardware,
+            floating_point_range=_float_range(0.00269, 3.20917)))
+        declare('velocity_limit', 4.796, ParameterDescriptor(
+            description='Velocity Limit written to both servos [rad/s] (0.229 rpm units)'
+                        + hardware,
+            floating_point_range=_float_range(0.024, 24.5)))
+        declare('temperature_limit', 70, ParameterDescriptor(
+            description='Temperature Limit written to both servos [degC]; overheating '
+                        'error above it' + hardware,
+            integer_range=_int_range(0, 100)))
+        declare('profile_acceleration', 0, ParameterDescriptor(
+            description='Profile Acceleration register [214.577 rev/min^2 units]; '
+                        '0 = unlimited' + hardware,
+            integer_range=_int_range(0, 32767)))
+        declare('publish_rate', 100.0, ParameterDescriptor(
+            description='joint_states rate [Hz] (one sync read of both servos each)'
+                        + hardware,
+            floating_point_range=_float_range(1.0, 500.0)))
+        declare('diagnostics_rate', 1.0, ParameterDescriptor(
+            description='/diagnostics rate [Hz]' + hardware,
+            floating_point_range=_float_range(0.1, 10.0)))
+        declare('default_current', 0.5, ParameterDescriptor(
+            description='Goal Current [A] used when a command has max_current = 0 '
+                        '(must not exceed current_limit)',
+            floating_point_range=_float_range(0.00269, 3.20917)))
+        declare('default_profile_velocity', 1.0, ParameterDescriptor(
+            description='Profile Velocity [rad/s] used when a command has '
+                        'profile_velocity = 0 (must not exceed velocity_limit)',
+            floating_point_range=_float_range(0.024, 24.5)))
+        declare('release_on_shutdown', False, ParameterDescriptor(
+            description='switch torque off on deactivate/shutdown (drops a held object); '
+                        'false keeps holding the grip'))
+        declare('autostart', False, ParameterDescriptor(
+            description='configure and activate at start (no lifecycle manager needed)',
+            read_only=True))
+
+    def _config_from(self, overrides: dict[str, Any] | None = None) -> GripperConfig:
+        values = {name: self.get_parameter(name).value for name in (
+            *HARDWARE_PARAMETERS, 'default_current', 'default_profile_velocity')}
+        values.update(overrides or {})
+        return GripperConfig(
+            port=values['port'],
+            baud_rate=values['baud_rate'],
+            right=FingerConfig('right', RIGHT_JOINT, values['right_id'],
+                               values['right_zero_position'], values['right_direction']),
+            left=FingerConfig('left', LEFT_JOINT, values['left_id'],
+                              values['left_zero_position'], values['left_direction']),
+            limits=GripperLimits(values['theta_min'], values['theta_max'],
+                                 values['current_limit'], values['velocity_limit'],
+                                 values['temperature_limit']),
+            default_current=values['default_current'],
+            default_profile_velocity=values['default_profile_velocity'],
+            profile_acceleration=values['profile_acceleration'],
+        )
+
+    def _on_set_parameters(self, parameters: list) -> SetParametersResult:
+        changed = {p.name: p.value for p in parameters}
+        hardware = sorted(set(changed) & set(HARDWARE_PARAMETERS))
+        if hardware and self._configured:
+            return SetParametersResult(
+                successful=False,
+                reason=f'{hardware} can change only while unconfigured (cleanup first)')
+        try:
+            self._config_from(changed).validate()
+        except ValueError as error:
+            return SetParametersResult(successful=False, reason=str(error))
+        if self.gripper is not None and (
+                'default_current' in changed or 'default_profile_velocity' in changed):
+            self.gripper.config = self._config_from(changed)
+        return SetParametersResult(successful=True)
+
+    # -- lifecycle -------------------------------------------------------------------
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        config = self._config_from()
+        gripper = Gripper(config)
+        try:
+            gripper.open()
+            models = gripper.ping()
+            report = gripper.configure()
+        except DynamixelError as error:
+            gripper.close()
+            self.get_logger().error(f'configure failed: {error}')
+            self._last_error = str(error)
+            return TransitionCallbackReturn.FAILURE
+        self.gripper = gripper
+        self.get_logger().info(
+            f'{config.port} at {config.baud_rate} bit/s: servos {sorted(models)} are '
+            f'XM430-W350; EEPROM items written: {report.written}; read back: '
+            f'{report.read_back}')
+        if report.torque_was_disabled:
+            self.get_logger().warn(
+                f'torque of servo(s) {report.torque_was_disabled} had to be switched off to '
+                'write EEPROM limits (they were not holding the configured limits)')
+        limits = gripper.limits
+        self.get_logger().info(
+            f'limits in force (from the servos\' registers): theta {limits.theta_min:.4f}..'
+            f'{limits.theta_max:.4f} rad, current {limits.current_limit:.3f} A, velocity '
+            f'{limits.velocity_limit:.3f} rad/s, temperature {limits.temperature_limit} degC')
+        self._joint_publisher = self.create_lifecycle_publisher(
+            JointState, 'joint_states', _reliable(10))
+        self._command_subscription = self.create_subscription(
+            ServoCommand, 'gripper/command', self._on_command, _reliable(10))
+        self._diagnostics_timer = self.create_timer(
+            1.0 / self.get_parameter('diagnostics_rate').value, self._publish_diagnostics)
+        self._configured = True
+        return super().on_configure(state)
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        try:
+            held = self.gripper.hold_present_position()
+            self.gripper.set_torque(True)
+        except DynamixelError as error:
+            self.get_logger().error(f'activate failed: {error}')
+            self._last_error = str(error)
+            return TransitionCallbackReturn.FAILURE
+        self.get_logger().info(f'torque on, holding theta = {held.theta:.4f} rad')
+        self._state_timer = self.create_timer(
+            1.0 / self.get_parameter('publish_rate').value, self._publish_state)
+        self._active = True
+        return super().on_activate(state)
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._active = False
+        if self._state_timer is not None:
+            self.destroy_timer(self._state_timer)
+            self._state_timer = None
+        self._stop_or_hold('deactivate', close=False)
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release_ros_entities()
+        if self.gripper is not None:
+            self.gripper.close()
+            self.gripper = None
+        self._configured = False
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._active = False
+        if self._state_timer is not None:
+            self.destroy_timer(self._state_timer)
+            self._state_timer = None
+        self._release_ros_entities()
+        self.stop_hardware('shutdown')
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self.get_logger().error(f'error in transition from {state.label}; closing the port '
+                                '(torque left as it is)')
+        self._active = False
+        self._release_ros_entities()
+        if self.gripper is not None:
+            self.gripper.close()
+            self.gripper = None
+        self._configured = False
+        return TransitionCallbackReturn.SUCCESS
+
+    def _release_ros_entities(self) -> None:
+        if self._diagnostics_timer is not None:
+            self.destroy_timer(self._diagnostics_timer)
+            self._diagnostics_timer = None
+        if self._command_subscription is not None:
+            self.destroy_subscription(self._command_subscription)
+            self._command_subscription = None
+        if self._joint_publisher is not None:
+            self.destroy_lifecycle_publisher(self._joint_publisher)
+            self._joint_publisher = None
+
+    def _stop_or_hold(self, why: str, close: bool) -> None:
+        if self.gripper is None:
+            return
+        release = bool(self.get_parameter('release_on_shutdown').value)
+        try:
+            if close:
+                self.gripper.shutdown(release=release)
+                self.gripper = None
+                self._configured = False
+            elif release:
+                self.gripper.set_torque(False)
+        except DynamixelError as error:
+            self.get_logger().error(f'{why}: {error}')
+        if release:
+            self.get_logger().warn(f'{why}: torque OFF (release_on_shutdown is true)')
+        else:
+            self.get_logger().info(f'{why}: servos keep holding the grip (torque stays on; '
+                                   'set release_on_shutdown:=true to release)')
+
+    def stop_hardware(self, why: str = 'shutdown') -> None:
+        """Hold (or release, per ``release_on_shutdown``) and close the port.
+
+        Safe to call without a running rclpy context (used by ``main`` after Ctrl-C).
+        """
+        self._stop_or_hold(why, close=True)
+
+    # -- callbacks -------------------------------------------------------------------
+    def _on_command(self, message: ServoCommand) -> None:
+        if not self._active or self.gripper is None:
+            self.counters['commands_ignored_inactive'] += 1
+            self.get_logger().warn('gripper/command ignored: driver is not active',
+                                   throttle_duration_sec=1.0)
+            return
+        try:
+            check = self.gripper.command(message.position, message.max_current,
+                                         message.profile_velocity)
+        except DynamixelError as error:
+            self.counters['write_failures'] += 1
+            self._last_error = str(error)
+            self.get_logger().error(f'gripper/command not sent: {error}')
+            return
+        if not check.accepted:
+            self.counters['commands_refused'] += 1
+            self.get_logger().warn(f'gripper/command refused: {"; ".join(check.reasons)}')
+            return
+        self.counters['commands_sent'] += 1
+        if check.clipped:
+            self.counters['commands_clipped'] += 1
+            self.get_logger().warn(f'gripper/command clipped: {"; ".join(check.reasons)}')
+
+    def _read_state(self) -> dict[str, FingerState] | None:
+        start = time.monotonic()
+        stamp_start = self.get_clock().now()
+        try:
+            state = self.gripper.read_state()
+        except DynamixelError as error:
+            self.counters['state_read_failures'] += 1
+            self.counters['consecutive_read_failures'] += 1
+            self._last_error = str(error)
+            self.get_logger().warn(f'state not read (no joint_states sample): {error}',
+                                   throttle_duration_sec=1.0)
+            return None
+        elapsed = time.monotonic() - start
+        self.counters['state_reads'] += 1
+        self.counters['consecutive_read_failures'] = 0
+        self._last_state = state
+        self._last_state_time = time.monotonic()
+        # Stamp: middle of the transaction (the servos sampled while answering).
+        self._last_stamp = stamp_start + Duration(seconds=elapsed / 2.0)
+        return state
+
+    def _publish_state(self) -> None:
+        if self.gripper is None or self._joint_publisher is None:
+            return
+        state = self._read_state()
+        if state is None:
+            return
+        message = JointState()
+        message.header.stamp = self._last_stamp.to_msg()
+        message.name = [LEFT_JOINT, RIGHT_JOINT]
+        left, right = state['left'], state['right']
+        message.position = [left.theta, right.theta]
+        message.velocity = [left.velocity, right.velocity]
+        message.effort = [left.effort, right.effort]
+        self._joint_publisher.publish(message)
+
+    def _publish_diagnostics(self) -> None:
+        if self.gripper is None:
+            return
+        if time.monotonic() - self._last_state_time > 1.0:
+            self._read_state()  # inactive: no state timer, keep temperature fresh
+        try:
+            self._hardware_errors = self.gripper.read_hardware_errors()
+            self._torque = self.gripper.torque_enabled()
+        except DynamixelError as error:
+            self._last_error = str(error)
+            self._hardware_errors = {}
+            self._torque = {}
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        array.status = [self._servo_status(finger) for finger in self.gripper.config.fingers]
+        array.status.append(self._driver_status())
+        self._diagnostics_publisher.publish(array)
+
+    def _servo_status(self, finger: FingerConfig) -> DiagnosticStatus:
+        status = DiagnosticStatus()
+        status.name = f'{self.get_name()}: {finger.name} finger servo (id {finger.servo_id})'
+        status.hardware_id = (f'dynamixel xm430-w350 id {finger.servo_id} on '
+                              f'{self.gripper.config.port}')
+        errors = self._hardware_errors.get(finger.servo_id)
+        fresh = (self._last_state is not None
+                 and time.monotonic() - self._last_state_time < 3.0)
+        state = self._last_state[finger.name] if fresh else None
+        limit = self.gripper.limits.temperature_limit
+        problems, level = [], DiagnosticStatus.OK
+        if errors is None:
+            level = DiagnosticStatus.ERROR
+            problems.append('no answer to Hardware Error Status read')
+        elif errors:
+            level = DiagnosticStatus.ERROR
+            problems.append(f'hardware error: {ct.hardware_error_text(errors)}')
+            if not self._torque.get(finger.servo_id, False):
+                problems.append('torque off by shutdown (reboot the servo)')
+        if state is None:
+            level = DiagnosticStatus.ERROR
+            problems.append('no recent state read')
+        elif state.temperature >= limit - TEMPERATURE_WARNING_MARGIN_C:
+            level = max(level, DiagnosticStatus.WARN)
+            problems.append(f'temperature {state.temperature:.0f} degC near limit {limit}')
+        status.level = level
+        status.message = '; '.join(problems) if problems else 'ok'
+        values = {
+            'hardware_error_status': 'unknown' if errors is None else f'0x{errors:02x}',
+            'hardware_errors': 'unknown' if errors is None else ct.hardware_error_text(errors),
+            'torque_enabled': str(self._torque.get(finger.servo_id, 'unknown')),
+            'temperature_limit_C': str(limit),
+        }
+        if state is not None:
+            values.update({
+                'temperature_C': f'{state.temperature:.0f}',
+                'input_voltage_V': f'{state.input_voltage:.1f}',
+                'theta_rad': f'{state.theta:.5f}',
+                'current_A': f'{state.effort:.4f}',
+            })
+        status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        return status
+
+    def _driver_status(self) -> DiagnosticStatus:
+        status = DiagnosticStatus()
+        status.name = f'{self.get_name()}: driver'
+        status.hardware_id = f'dynamixel bus {self.gripper.config.port}'
+        failing = self.counters['consecutive_read_failures'] >= READ_FAILURES_FOR_ERROR
+        status.level = DiagnosticStatus.ERROR if failing else DiagnosticStatus.OK
+        status.message = (f'state reads failing: {self._last_error}' if failing
+                          else ('active' if self._active else 'inactive (holding)'))
+        values = {name: str(value) for name, value in self.counters.items()}
+        values['last_error'] = self._last_error or 'none'
+        values['release_on_shutdown'] = str(self.get_parameter('release_on_shutdown').value)
+        status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        return status
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run the gripper driver until interrupted; hold (or release) the grip on exit."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = GripperDriverNode()
+        rclpy.spin(node)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if node is not None:
+            node.stop_hardware('process exit')
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()
