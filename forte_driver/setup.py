@@ -25,7 +25,10 @@ setup(
     zip_safe=False,
     maintainer='FORTE maintainers',
     maintainer_email='maintainers@forte-gripper.org',
-    description='Sources of FORTE tactile frames and actuators: serial sensor driver (binary and legacy ASCII protocol), Dynamixel gripper driver, simulated scene, bag replay.',
+    description=(
+        'Sources of FORTE tactile frames and actuators: serial sensor driver (binary and '
+        'legacy ASCII protocol), Dynamixel gripper driver, simulated scene, bag replay.'
+    ),
     license='Apache-2.0',
     extras_require={'test': ['pytest']},
     entry_points={

@@ -25,7 +25,11 @@ setup(
     zip_safe=False,
     maintainer='FORTE maintainers',
     maintainer_email='maintainers@forte-gripper.org',
-    description='FORTE signal processing (median filter, tare, contact, SVR force estimation, PSD slip detection) as a pure library, the perception node, and offline training, evaluation and benchmark tools.',
+    description=(
+        'FORTE signal processing (median filter, tare, contact, SVR force estimation, PSD '
+        'slip detection) as a pure library, the perception node, and offline training, '
+        'evaluation and benchmark tools.'
+    ),
     license='Apache-2.0',
     extras_require={'test': ['pytest']},
     entry_points={

@@ -1,1 +1,2 @@
-"""FORTE bringup: launch files, parameter files, bag recording, demo, evaluation."""
+"""FORTE bringup: launch files, parameter files, bag recording, demo, evaluation.
+"""
