@@ -102,7 +102,7 @@ class BagReplayNode(Node):
     """Republish the messages of a bag on their (relative) topics, paced by a thread."""
 
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__('bag_replay_node', **kwargs)
+        super().__init__('bag_replay', **kwargs)
         self.declare_parameter(
             'bag_path', '',
             ParameterDescriptor(
@@ -331,7 +331,7 @@ def main(args: list[str] | None = None) -> None:
                 break
     except BagError as error:
         if node is None:
-            rclpy.logging.get_logger('bag_replay_node').fatal(str(error))
+            rclpy.logging.get_logger('bag_replay').fatal(str(error))
             raise SystemExit(2) from error
     except KeyboardInterrupt:
         pass

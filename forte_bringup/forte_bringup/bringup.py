@@ -1,0 +1,433 @@
+"""``forte_bringup``: bring up a FORTE graph on a machine without ``ros2 launch``.
+
+Starts the same node executables as ``launch/<graph>.launch.py`` (from
+:data:`forte_bringup.graph.GRAPHS`) as child processes with the same node names, the same
+parameter YAML (``--ros-args --params-file``) and the same remappings; configures and
+activates the lifecycle nodes through their ``change_state`` services
+(lifecycle_msgs/srv/ChangeState); prefixes and logs every child's output; and on Ctrl-C
+(or SIGTERM, or a child exiting) deactivates the lifecycle nodes and stops every child
+(SIGINT, then SIGTERM, then SIGKILL after timeouts).
+
+Usage::
+
+    forte_bringup sim                              # simulated scene + perception + control
+    forte_bringup sim object:=soda_can record:=true
+    forte_bringup replay bag:=out/bags/run1 rate:=2.0
+    forte_bringup hardware sensor_port:=/dev/forte_sensor gripper_port:=/dev/forte_gripper \\
+        arm_cmd_vel_topic:=/servo_node/delta_twist_cmds
+
+Arguments are the launch files' (``name:=value``; ``forte_bringup <graph> --help`` lists
+them). ROS network: unless ``--domain-id`` is given or ``ROS_DOMAIN_ID`` is set, a free
+domain id is reserved; discovery is always confined to this machine
+(:func:`forte_bringup.ros_isolation.isolate_ros_network`). The id is printed so that other
+terminals can join (``export ROS_DOMAIN_ID=<id> ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections import deque
+from pathlib import Path
+from typing import Any, TextIO
+
+from forte_bringup.graph import GRAPHS, GraphSpec, NodeSpec, params_file
+from forte_bringup.ros_isolation import isolate_ros_network
+
+#: lifecycle_msgs/msg/Transition ids used here.
+TRANSITION_CONFIGURE = 1
+TRANSITION_ACTIVATE = 3
+TRANSITION_DEACTIVATE = 4
+
+
+class BringupError(RuntimeError):
+    """The graph could not be brought up (missing executable, node not appearing, ...)."""
+
+
+def find_executable(package: str, executable: str) -> str:
+    """Path of a package's node executable, as ``ros2 run`` would find it.
+
+    Looks in ``<prefix>/lib/<package>/`` of every ``AMENT_PREFIX_PATH`` entry, then on
+    ``PATH``.
+
+    Raises
+    ------
+    BringupError
+        If it is found nowhere.
+    """
+    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        candidate = Path(prefix) / 'lib' / package / executable
+        if prefix and candidate.is_file() and os.access(candidate, os.X_OK):
+            return str(candidate)
+    found = shutil.which(executable)
+    if found is None:
+        raise BringupError(
+            f'executable {executable} of {package} not found (source install/setup.bash)'
+        )
+    return found
+
+
+def _parameter_text(value: object) -> str:
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    return str(value)
+
+
+def node_command(
+    spec: NodeSpec,
+    params: Path,
+    arguments: dict[str, str],
+    executable: str | None = None,
+) -> list[str]:
+    """Command line of one node: executable and ``--ros-args`` as the launch file sets them.
+
+    Parameters
+    ----------
+    spec : NodeSpec
+        The node.
+    params : Path
+        Parameter YAML of the graph.
+    arguments : dict
+        Graph argument values; empty strings mean "not given" (the YAML value stays).
+    executable : str, optional
+        Path of the executable (default: :func:`find_executable`).
+    """
+    command = [executable or find_executable(spec.package, spec.executable), '--ros-args',
+               '-r', f'__node:={spec.name}', '--params-file', str(params)]
+    for source, target in spec.remappings:
+        command += ['-r', f'{source}:={target}']
+    for source, argument in spec.argument_remaps:
+        target = arguments.get(argument, '')
+        if target and target != source:
+            command += ['-r', f'{source}:={target}']
+    for parameter, argument in spec.argument_parameters:
+        value = arguments.get(argument, '')
+        if value != '':
+            command += ['-p', f'{parameter}:={value}']
+    for parameter, value in spec.fixed_parameters:
+        command += ['-p', f'{parameter}:={_parameter_text(value)}']
+    return command
+
+
+def parse_graph_arguments(graph: GraphSpec, items: list[str]) -> dict[str, str]:
+    """``name:=value`` items to a dict over every argument of ``graph`` (defaults filled).
+
+    Raises
+    ------
+    BringupError
+        On a malformed item or an argument the graph does not declare.
+    """
+    values = {argument.name: argument.default for argument in graph.arguments}
+    for item in items:
+        if ':=' not in item:
+            raise BringupError(f'argument {item!r} is not of the form name:=value')
+        name, value = item.split(':=', 1)
+        if name not in values:
+            known = ', '.join(sorted(values))
+            raise BringupError(f'graph {graph.name} has no argument {name!r} (known: {known})')
+        values[name] = value
+    return values
+
+
+class _Child:
+    """A started node process with its output pump."""
+
+    def __init__(self, name: str, command: list[str], log_dir: Path, echo: TextIO | None):
+        self.name = name
+        self.command = command
+        self.log_path = log_dir / f'{name}.log'
+        self.tail: deque[str] = deque(maxlen=30)
+        self._log = self.log_path.open('w')
+        self.process = subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+            start_new_session=True, bufsize=1,
+        )
+        self._pump = threading.Thread(target=self._read, args=(echo,), daemon=True)
+        self._pump.start()
+
+    def _read(self, echo: TextIO | None) -> None:
+        assert self.process.stdout is not None
+        for line in self.process.stdout:
+            self._log.write(line)
+            self._log.flush()
+            self.tail.append(line.rstrip())
+            if echo is not None:
+                echo.write(f'[{self.name}] {line}')
+                echo.flush()
+        self._log.close()
+
+    def stop(self, timeout: float) -> int:
+        """SIGINT, then SIGTERM, then SIGKILL; returns the exit code."""
+        for sig, wait in ((signal.SIGINT, timeout), (signal.SIGTERM, 3.0),
+                          (signal.SIGKILL, 3.0)):
+            if self.process.poll() is not None:
+                break
+            try:
+                self.process.send_signal(sig)
+            except ProcessLookupError:
+                break
+            try:
+                self.process.wait(wait)
+            except subprocess.TimeoutExpired:
+                continue
+        self._pump.join(timeout=2.0)
+        return self.process.returncode
+
+
+class Bringup:
+    """A FORTE graph running as child processes; use as a context manager.
+
+    Parameters
+    ----------
+    graph : str
+        ``hardware``, ``sim`` or ``replay``.
+    arguments : dict, optional
+        Graph argument values (see :data:`forte_bringup.graph.GRAPHS`).
+    params : Path, optional
+        Parameter YAML (default ``config/<graph>.yaml``, or the ``params_file`` argument).
+    extra_parameters : dict, optional
+        ``{node name: {parameter: value}}`` set with ``-p`` after the YAML (tests, demo).
+    log_dir : Path
+        Where each child's output goes (``<node name>.log``).
+    echo : TextIO or None
+        Stream for the children's prefixed output (None: log files only).
+    """
+
+    def __init__(
+        self,
+        graph: str,
+        arguments: dict[str, str] | None = None,
+        params: Path | None = None,
+        extra_parameters: dict[str, dict[str, Any]] | None = None,
+        log_dir: Path = Path('out/bringup'),
+        echo: TextIO | None = sys.stdout,
+    ) -> None:
+        if graph not in GRAPHS:
+            raise BringupError(f'unknown graph {graph!r}; expected one of {sorted(GRAPHS)}')
+        self.graph = GRAPHS[graph]
+        self.arguments = parse_graph_arguments(self.graph, [])
+        self.arguments.update(arguments or {})
+        given = self.arguments.get('params_file', '')
+        self.params = Path(params or given or params_file(graph))
+        if not self.params.is_file():
+            raise BringupError(f'parameter file {self.params} does not exist')
+        if graph == 'replay' and not self.arguments.get('bag'):
+            raise BringupError('the replay graph needs bag:=<bag folder or .mcap file>')
+        self.extra_parameters = extra_parameters or {}
+        self.log_dir = Path(log_dir)
+        self.echo = echo
+        self.children: list[_Child] = []
+        self._manager = None  # rclpy node calling the lifecycle services
+        self._context = None
+        self._executor = None
+
+    # commands --------------------------------------------------------------------------
+    def commands(self) -> dict[str, list[str]]:
+        """Command line of every process of the graph (nodes, then the recorder)."""
+        out = {}
+        for spec in self.graph.nodes:
+            command = node_command(spec, self.params, self.arguments)
+            for parameter, value in self.extra_parameters.get(spec.name, {}).items():
+                command += ['-p', f'{parameter}:={_parameter_text(value)}']
+            out[spec.name] = command
+        if self.arguments.get('record', 'false').lower() in ('true', '1', 'yes'):
+            command = [sys.executable, '-m', 'forte_bringup.record']
+            if self.arguments.get('bag_output'):
+                command += ['-o', self.arguments['bag_output']]
+            out['recorder'] = command
+        return out
+
+    # start / stop ----------------------------------------------------------------------
+    def start(self, timeout: float = 30.0) -> None:
+        """Start every process, wait for the nodes, configure and activate lifecycle nodes.
+
+        Raises
+        ------
+        BringupError
+            If a process exits, a node does not appear within ``timeout`` s, or a
+            lifecycle transition fails; everything started is stopped again first.
+        """
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        try:
+            for name, command in self.commands().items():
+                self.children.append(_Child(name, command, self.log_dir, self.echo))
+            self._start_manager()
+            self._wait_for_nodes(timeout)
+            for spec in self.graph.nodes:
+                if spec.lifecycle:
+                    self.change_state(spec.name, TRANSITION_CONFIGURE, timeout)
+                    self.change_state(spec.name, TRANSITION_ACTIVATE, timeout)
+        except BaseException:
+            self.stop()
+            raise
+
+    def _start_manager(self) -> None:
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.executors import SingleThreadedExecutor
+
+        self._context = Context()
+        rclpy.init(context=self._context)
+        self._manager = rclpy.create_node('forte_bringup_manager', context=self._context)
+        self._executor = SingleThreadedExecutor(context=self._context)
+        self._executor.add_node(self._manager)
+
+    def _spin(self, seconds: float) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self._executor.spin_once(timeout_sec=min(0.05, max(0.0, end - time.monotonic())))
+
+    def check_children(self) -> None:
+        """Raise :class:`BringupError` if a child process has exited."""
+        for child in self.children:
+            code = child.process.poll()
+            if code is not None:
+                tail = '\n    '.join(child.tail)
+                raise BringupError(
+                    f'{child.name} exited with code {code} (log {child.log_path}):\n    {tail}'
+                )
+
+    def _wait_for_nodes(self, timeout: float) -> None:
+        wanted = {spec.name for spec in self.graph.nodes}
+        deadline = time.monotonic() + timeout
+        while True:
+            self.check_children()
+            present = {name for name, _ in self._manager.get_node_names_and_namespaces()}
+            missing = wanted - present
+            if not missing:
+                return
+            if time.monotonic() > deadline:
+                raise BringupError(f'nodes {sorted(missing)} did not appear within {timeout} s')
+            self._spin(0.1)
+
+    def change_state(self, node: str, transition: int, timeout: float = 10.0) -> None:
+        """Request a lifecycle transition of ``node`` through its ``change_state`` service.
+
+        Raises
+        ------
+        BringupError
+            If the service is missing or the node refuses the transition.
+        """
+        from lifecycle_msgs.srv import ChangeState
+
+        client = self._manager.create_client(ChangeState, f'/{node}/change_state')
+        try:
+            deadline = time.monotonic() + timeout
+            while not client.service_is_ready():
+                self.check_children()
+                if time.monotonic() > deadline:
+                    raise BringupError(f'{node}: lifecycle service change_state not available')
+                self._spin(0.05)
+            request = ChangeState.Request()
+            request.transition.id = transition
+            future = client.call_async(request)
+            while not future.done():
+                self.check_children()
+                if time.monotonic() > deadline:
+                    raise BringupError(f'{node}: transition {transition} timed out')
+                self._spin(0.05)
+            if not future.result().success:
+                raise BringupError(f'{node}: lifecycle transition {transition} refused '
+                                   f'(see {self.log_dir / (node + ".log")})')
+            if self.echo is not None:
+                label = {1: 'configured', 3: 'activated', 4: 'deactivated'}.get(transition)
+                self.echo.write(f'[forte_bringup] {node} {label}\n')
+        finally:
+            self._manager.destroy_client(client)
+
+    def stop(self, timeout: float = 10.0) -> dict[str, int]:
+        """Deactivate lifecycle nodes, then stop every child; returns exit codes by name."""
+        if self._manager is not None:
+            for spec in self.graph.nodes:
+                child = next((c for c in self.children if c.name == spec.name), None)
+                if spec.lifecycle and child is not None and child.process.poll() is None:
+                    try:
+                        self.change_state(spec.name, TRANSITION_DEACTIVATE, 3.0)
+                    except BringupError:
+                        pass  # not active (e.g. configure failed): just stop the process
+        codes = {}
+        for child in reversed(self.children):  # recorder first, sources last
+            codes[child.name] = child.stop(timeout)
+        if self._manager is not None:
+            import rclpy
+
+            self._executor.shutdown()
+            self._manager.destroy_node()
+            rclpy.try_shutdown(context=self._context)
+            self._manager = None
+        self.children = []
+        return codes
+
+    def __enter__(self) -> Bringup:
+        self.start()
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self.stop()
+
+
+def _domain(domain_id: int | None) -> int:
+    if domain_id is not None:
+        return isolate_ros_network(domain_id)
+    if os.environ.get('ROS_DOMAIN_ID', '').isdigit():
+        return isolate_ros_network(int(os.environ['ROS_DOMAIN_ID']))
+    return isolate_ros_network()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point ``forte_bringup``."""
+    parser = argparse.ArgumentParser(
+        prog='forte_bringup', description='Bring up a FORTE graph without ros2 launch.',
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog='graph arguments (name:=value):\n' + '\n'.join(
+            f'  {graph.name}: ' + ', '.join(a.name for a in graph.arguments)
+            for graph in GRAPHS.values()),
+    )
+    parser.add_argument('graph', choices=sorted(GRAPHS), help='which graph to bring up')
+    parser.add_argument('arguments', nargs='*', help='graph arguments name:=value')
+    parser.add_argument('--domain-id', type=int, default=None,
+                        help='ROS_DOMAIN_ID to use (default: $ROS_DOMAIN_ID or a free one)')
+    parser.add_argument('--log-dir', type=Path, default=Path('out/bringup'),
+                        help='folder of the per-node log files')
+    parser.add_argument('--quiet', action='store_true', help="do not echo the nodes' output")
+    options = parser.parse_args(argv)
+
+    domain = _domain(options.domain_id)
+    graph = GRAPHS[options.graph]
+    try:
+        arguments = parse_graph_arguments(graph, options.arguments)
+        bringup = Bringup(options.graph, arguments, log_dir=options.log_dir,
+                          echo=None if options.quiet else sys.stdout)
+    except BringupError as error:
+        print(f'[forte_bringup] error: {error}', file=sys.stderr)
+        return 2
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    print(f'[forte_bringup] {graph.description}\n[forte_bringup] parameters {bringup.params}; '
+          f'ROS_DOMAIN_ID={domain} (join with: export ROS_DOMAIN_ID={domain} '
+          f'ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST)', flush=True)
+    code = 0
+    try:
+        bringup.start()
+        print(f'[forte_bringup] {graph.name} graph up: '
+              f'{", ".join(s.name for s in graph.nodes)}; Ctrl-C to stop', flush=True)
+        while not stop.wait(0.2):
+            bringup.check_children()
+    except BringupError as error:
+        print(f'[forte_bringup] error: {error}', file=sys.stderr, flush=True)
+        code = 1
+    finally:
+        codes = bringup.stop()
+        print('[forte_bringup] stopped: ' + ', '.join(f'{n} ({c})' for n, c in codes.items()),
+              flush=True)
+    return code
+
+
+if __name__ == '__main__':
+    sys.exit(main())

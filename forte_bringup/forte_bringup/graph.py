@@ -1,0 +1,174 @@
+"""The three FORTE graphs (hardware, simulation, bag replay) as data.
+
+One description, two front ends: the launch files (``launch/*.launch.py``, for ``ros2
+launch`` on a ROS 2 install) and :mod:`forte_bringup.bringup` (``forte_bringup`` on a bare
+machine) both build their processes from :data:`GRAPHS`, so both start the same node
+executables under the same node names, with the same parameter file and remappings.
+Pure data (no rclpy, no launch).
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class NodeSpec:
+    """One node of a graph.
+
+    Attributes
+    ----------
+    package, executable : str
+        ROS package and console script (``ros2 run <package> <executable>``).
+    name : str
+        Node name (set with ``__node:=``); the key of its block in the parameter YAML.
+    lifecycle : bool
+        Managed node: configured and activated after start-up.
+    remappings : tuple of (str, str)
+        Fixed remappings ``(from, to)``; argument-driven ones are in ``argument_remaps``.
+    argument_remaps : tuple of (str, str)
+        ``(topic, argument name)``: remap ``topic`` to the value of that argument.
+    argument_parameters : tuple of (str, str)
+        ``(parameter, argument name)``: set the parameter from that argument when given.
+    fixed_parameters : tuple of (str, object)
+        Parameters this graph always sets on the node (after the YAML), e.g. ``dry_run``.
+    """
+
+    package: str
+    executable: str
+    name: str
+    lifecycle: bool = False
+    remappings: tuple[tuple[str, str], ...] = ()
+    argument_remaps: tuple[tuple[str, str], ...] = ()
+    argument_parameters: tuple[tuple[str, str], ...] = ()
+    fixed_parameters: tuple[tuple[str, object], ...] = ()
+
+
+@dataclass(frozen=True)
+class Argument:
+    """A graph argument (``ros2 launch ... name:=value`` / ``forte_bringup ... --arg``)."""
+
+    name: str
+    default: str
+    description: str
+
+
+@dataclass(frozen=True)
+class GraphSpec:
+    """A whole graph: its nodes, its parameter file, its arguments."""
+
+    name: str
+    description: str
+    params_file: str
+    nodes: tuple[NodeSpec, ...]
+    arguments: tuple[Argument, ...] = field(default_factory=tuple)
+
+    def node(self, name: str) -> NodeSpec:
+        """The node called ``name``."""
+        for spec in self.nodes:
+            if spec.name == name:
+                return spec
+        raise KeyError(f'graph {self.name} has no node {name!r}')
+
+
+PERCEPTION = NodeSpec(
+    'forte_perception', 'perception_node', 'perception',
+    argument_parameters=(('model_path', 'force_model'),),
+)
+CONTROL = NodeSpec(
+    'forte_control', 'grasp_controller_node', 'grasp_controller',
+    argument_remaps=(('arm/cmd_vel', 'arm_cmd_vel_topic'),),
+)
+
+COMMON_ARGUMENTS = (
+    Argument('params_file', '', 'parameter YAML for every node of this graph '
+             '(default: config/<graph>.yaml of forte_bringup)'),
+    Argument('force_model', '', 'force model file for perception (empty: the YAML value)'),
+    Argument('arm_cmd_vel_topic', 'arm/cmd_vel', 'topic of the arm Cartesian velocity '
+             'commands (TwistStamped), e.g. /servo_node/delta_twist_cmds for MoveIt Servo'),
+    Argument('record', 'false', 'also record the graph topics to an MCAP bag (forte_record)'),
+    Argument('bag_output', '', 'bag folder to record to (default out/bags/forte_<time>)'),
+)
+
+GRAPHS: dict[str, GraphSpec] = {
+    'hardware': GraphSpec(
+        'hardware',
+        'FORTE on the real gripper: serial tactile sensor, Dynamixel gripper, perception, '
+        'grasp control (arm commands on arm_cmd_vel_topic)',
+        'hardware.yaml',
+        (
+            NodeSpec('forte_driver', 'serial_sensor_node', 'serial_sensor', lifecycle=True,
+                     argument_parameters=(('port', 'sensor_port'),)),
+            NodeSpec('forte_driver', 'gripper_driver_node', 'gripper_driver', lifecycle=True,
+                     argument_parameters=(('port', 'gripper_port'),)),
+            PERCEPTION,
+            CONTROL,
+        ),
+        (
+            *COMMON_ARGUMENTS,
+            Argument('sensor_port', '', 'serial device of the tactile sensor, e.g. '
+                     '/dev/forte_sensor (empty: the YAML value)'),
+            Argument('gripper_port', '', 'serial device of the U2D2 Dynamixel interface, '
+                     'e.g. /dev/forte_gripper (empty: the YAML value)'),
+        ),
+    ),
+    'sim': GraphSpec(
+        'sim',
+        'FORTE in simulation: simulated scene (sensor, servo, arm, object), perception, '
+        'grasp control',
+        'sim.yaml',
+        (
+            NodeSpec('forte_driver', 'sim_node', 'sim',
+                     argument_parameters=(('object_name', 'object'),)),
+            PERCEPTION,
+            CONTROL,
+        ),
+        (
+            *COMMON_ARGUMENTS,
+            Argument('object', '', 'object of the grasp scene, e.g. raspberry, soda_can '
+                     '(empty: the YAML value)'),
+        ),
+    ),
+    'replay': GraphSpec(
+        'replay',
+        'FORTE on a recorded bag: bag replay drives perception and control; control runs '
+        'dry (no servo or arm command moves anything)',
+        'replay.yaml',
+        (
+            NodeSpec('forte_driver', 'bag_replay_node', 'bag_replay',
+                     argument_parameters=(('bag_path', 'bag'), ('rate', 'rate'))),
+            PERCEPTION,
+            NodeSpec('forte_control', 'grasp_controller_node', 'grasp_controller',
+                     argument_remaps=(('arm/cmd_vel', 'arm_cmd_vel_topic'),),
+                     fixed_parameters=(('dry_run', True),)),
+        ),
+        (
+            *COMMON_ARGUMENTS,
+            Argument('bag', '', 'bag to replay (rosbag2 MCAP folder or .mcap file); required'),
+            Argument('rate', '', 'replay speed factor, 1.0 = recorded timing, 0 = as fast as '
+                     'possible (empty: the YAML value)'),
+        ),
+    ),
+}
+
+
+def config_folder() -> Path:
+    """Folder of the parameter YAML files.
+
+    The source tree next to this module when it exists (editable install: edits apply at
+    once), else ``share/forte_bringup/config`` of the first prefix that has it.
+    """
+    source = Path(__file__).resolve().parents[1] / 'config'
+    if (source / 'sim.yaml').is_file():
+        return source
+    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        folder = Path(prefix) / 'share' / 'forte_bringup' / 'config'
+        if prefix and (folder / 'sim.yaml').is_file():
+            return folder
+    return source
+
+
+def params_file(graph: str) -> Path:
+    """Default parameter YAML of ``graph``."""
+    return config_folder() / GRAPHS[graph].params_file

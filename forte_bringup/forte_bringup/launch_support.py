@@ -1,0 +1,96 @@
+"""Build a launch description from a :mod:`forte_bringup.graph` graph (needs launch_ros).
+
+Used by ``launch/*.launch.py`` only; imports ``launch`` and ``launch_ros``, which exist on a
+ROS 2 install but not on a bare machine (there, :mod:`forte_bringup.bringup` starts the
+same graph). Every argument is declared with its description; nodes are created in an
+``OpaqueFunction`` so that an empty argument leaves the YAML value in force; lifecycle
+nodes are configured on start and activated once inactive (launch_ros lifecycle events).
+"""
+from __future__ import annotations
+
+import yaml
+from launch import LaunchContext, LaunchDescription
+from launch.actions import (
+    DeclareLaunchArgument,
+    EmitEvent,
+    ExecuteProcess,
+    LogInfo,
+    OpaqueFunction,
+    RegisterEventHandler,
+)
+from launch.conditions import IfCondition
+from launch.events import matches_action
+from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch_ros.actions import LifecycleNode, Node
+from launch_ros.event_handlers import OnStateTransition
+from launch_ros.events.lifecycle import ChangeState
+from launch_ros.substitutions import FindPackageShare
+from lifecycle_msgs.msg import Transition
+
+from forte_bringup.graph import GRAPHS, NodeSpec
+
+
+def _typed(text: str) -> object:
+    """A launch argument string as the typed parameter value ``-p name:=text`` would give."""
+    return yaml.safe_load(text) if text != '' else ''
+
+
+def _node_actions(spec: NodeSpec, context: LaunchContext, params_file: str) -> list:
+    arguments = {name: LaunchConfiguration(name).perform(context)
+                 for name in {a for _, a in (*spec.argument_parameters, *spec.argument_remaps)}}
+    overrides = {parameter: _typed(arguments[argument])
+                 for parameter, argument in spec.argument_parameters if arguments[argument]}
+    overrides.update(dict(spec.fixed_parameters))
+    remappings = list(spec.remappings)
+    remappings += [(topic, arguments[argument]) for topic, argument in spec.argument_remaps
+                   if arguments[argument] and arguments[argument] != topic]
+    parameters = [params_file] + ([overrides] if overrides else [])
+    if not spec.lifecycle:
+        return [Node(package=spec.package, executable=spec.executable, name=spec.name,
+                     namespace='', parameters=parameters, remappings=remappings,
+                     output='screen', emulate_tty=True)]
+    node = LifecycleNode(package=spec.package, executable=spec.executable, name=spec.name,
+                         namespace='', parameters=parameters, remappings=remappings,
+                         output='screen', emulate_tty=True)
+    configure = EmitEvent(event=ChangeState(
+        lifecycle_node_matcher=matches_action(node),
+        transition_id=Transition.TRANSITION_CONFIGURE))
+    activate_when_inactive = RegisterEventHandler(OnStateTransition(
+        target_lifecycle_node=node, start_state='configuring', goal_state='inactive',
+        entities=[
+            LogInfo(msg=f'{spec.name} configured, activating'),
+            EmitEvent(event=ChangeState(
+                lifecycle_node_matcher=matches_action(node),
+                transition_id=Transition.TRANSITION_ACTIVATE)),
+        ]))
+    return [activate_when_inactive, node, configure]
+
+
+def graph_launch_description(graph_name: str) -> LaunchDescription:
+    """The launch description of ``graph_name`` (``hardware``, ``sim`` or ``replay``)."""
+    graph = GRAPHS[graph_name]
+    declared = []
+    for argument in graph.arguments:
+        default = argument.default
+        if argument.name == 'params_file':
+            default = PathJoinSubstitution(
+                [FindPackageShare('forte_bringup'), 'config', graph.params_file])
+        declared.append(DeclareLaunchArgument(
+            argument.name, default_value=default, description=argument.description))
+
+    def setup(context: LaunchContext) -> list:
+        params_file = LaunchConfiguration('params_file').perform(context)
+        actions = []
+        for spec in graph.nodes:
+            actions += _node_actions(spec, context, params_file)
+        if IfCondition(LaunchConfiguration('record')).evaluate(context):
+            output = LaunchConfiguration('bag_output').perform(context)
+            actions.append(ExecuteProcess(
+                cmd=['forte_record', *(['-o', output] if output else [])], output='screen'))
+        return actions
+
+    return LaunchDescription([
+        *declared,
+        LogInfo(msg=graph.description),
+        OpaqueFunction(function=setup),
+    ])

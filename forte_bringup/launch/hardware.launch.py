@@ -1,0 +1,16 @@
+"""FORTE on the real gripper: serial tactile sensor and Dynamixel gripper (lifecycle
+nodes, configured and activated on start), perception, grasp control.
+
+    ros2 launch forte_bringup hardware.launch.py sensor_port:=/dev/forte_sensor \\
+        gripper_port:=/dev/forte_gripper arm_cmd_vel_topic:=/servo_node/delta_twist_cmds
+
+Nodes, parameter file and arguments come from forte_bringup.graph.GRAPHS['hardware'], the same
+description that `forte_bringup hardware` starts on a machine without ros2 launch.
+`ros2 launch forte_bringup hardware.launch.py --show-args` lists the arguments.
+"""
+from forte_bringup.launch_support import graph_launch_description
+
+
+def generate_launch_description():
+    """Launch description of the hardware graph."""
+    return graph_launch_description('hardware')

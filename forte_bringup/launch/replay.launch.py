@@ -1,0 +1,15 @@
+"""FORTE on a recorded bag: bag replay drives perception and control; the controller runs
+with dry_run:=true so that no servo or arm command moves anything.
+
+    ros2 launch forte_bringup replay.launch.py bag:=out/bags/run1 rate:=1.0
+
+Nodes, parameter file and arguments come from forte_bringup.graph.GRAPHS['replay'], the same
+description that `forte_bringup replay` starts on a machine without ros2 launch.
+`ros2 launch forte_bringup replay.launch.py --show-args` lists the arguments.
+"""
+from forte_bringup.launch_support import graph_launch_description
+
+
+def generate_launch_description():
+    """Launch description of the replay graph."""
+    return graph_launch_description('replay')

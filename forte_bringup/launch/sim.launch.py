@@ -1,0 +1,15 @@
+"""FORTE in simulation: the simulated scene (sensor, servo, arm, object), perception,
+grasp control.
+
+    ros2 launch forte_bringup sim.launch.py object:=soda_can record:=true
+
+Nodes, parameter file and arguments come from forte_bringup.graph.GRAPHS['sim'], the same
+description that `forte_bringup sim` starts on a machine without ros2 launch.
+`ros2 launch forte_bringup sim.launch.py --show-args` lists the arguments.
+"""
+from forte_bringup.launch_support import graph_launch_description
+
+
+def generate_launch_description():
+    """Launch description of the sim graph."""
+    return graph_launch_description('sim')

@@ -1,0 +1,129 @@
+"""The parameter YAML files match the nodes: every key is declared, every value applies.
+
+Each graph's nodes are started as the real executables with the graph's YAML (exactly the
+command line ``forte_bringup`` uses); the test then asks every node over its parameter
+services which parameters it declares and what values they hold. A misspelt key (which
+rclpy would silently ignore), a value of the wrong type (the node refuses to start) or a
+node block with no matching node fails here.
+"""
+from __future__ import annotations
+
+import importlib.util
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+import rclpy
+import yaml
+from rcl_interfaces.srv import GetParameters, ListParameters
+from rclpy.parameter import parameter_value_to_python
+
+from forte_bringup.bringup import node_command
+from forte_bringup.graph import GRAPHS, config_folder, params_file
+
+
+def module_exists(spec) -> bool:
+    return importlib.util.find_spec(f'{spec.package}.{spec.executable}') is not None
+
+
+def load(graph: str) -> dict:
+    return yaml.safe_load(params_file(graph).read_text())
+
+
+@pytest.mark.parametrize('graph', sorted(GRAPHS))
+def test_yaml_blocks_are_the_graph_nodes(graph):
+    data = load(graph)
+    assert set(data) == {spec.name for spec in GRAPHS[graph].nodes}
+    for name, block in data.items():
+        assert set(block) == {'ros__parameters'}, name
+        assert isinstance(block['ros__parameters'], dict)
+
+
+def test_every_graph_has_its_own_file():
+    files = {GRAPHS[g].params_file for g in GRAPHS}
+    assert files == {'hardware.yaml', 'sim.yaml', 'replay.yaml'}
+    assert all((config_folder() / f).is_file() for f in files)
+
+
+def call(node, client, request, timeout=10.0):
+    assert client.wait_for_service(timeout_sec=timeout), client.srv_name
+    future = client.call_async(request)
+    rclpy.spin_until_future_complete(node, future, timeout_sec=timeout)
+    assert future.done(), client.srv_name
+    return future.result()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('graph', sorted(GRAPHS))
+def test_yaml_keys_are_declared_parameters_with_those_values(graph, tmp_path):
+    spec_graph = GRAPHS[graph]
+    missing = [s.executable for s in spec_graph.nodes if not module_exists(s)]
+    nodes = [s for s in spec_graph.nodes if module_exists(s)]
+    data = load(graph)
+    arguments = {'bag': str(tmp_path / 'no_bag_needed.mcap')}
+    if graph == 'replay':  # the replay node checks its bag at start: give it a real one
+        from forte_bringup.bags import BagWriter, TopicSpec
+        bag = tmp_path / 'bag'
+        with BagWriter(bag) as writer:
+            writer.add_topic(TopicSpec('tactile/frames', 'forte_msgs/msg/TactileFrames'))
+        arguments['bag'] = str(bag)
+    processes = {}
+    rclpy.init()
+    node = rclpy.create_node('config_checker')
+    try:
+        for spec in nodes:
+            command = node_command(spec, params_file(graph), arguments)
+            processes[spec.name] = subprocess.Popen(
+                command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        for spec in nodes:
+            expected = data[spec.name]['ros__parameters']
+            listed = call(node, node.create_client(ListParameters,
+                                                   f'/{spec.name}/list_parameters'),
+                          ListParameters.Request(), timeout=30.0)
+            declared = set(listed.result.names)
+            unknown = set(expected) - declared
+            assert not unknown, f'{graph}.yaml: {spec.name} does not declare {sorted(unknown)}'
+            if not expected:
+                continue
+            got = call(node, node.create_client(GetParameters, f'/{spec.name}/get_parameters'),
+                       GetParameters.Request(names=list(expected)))
+            values = dict(zip(expected, (parameter_value_to_python(v) for v in got.values)))
+            fixed = dict(spec.fixed_parameters)
+            for key, value in expected.items():
+                value = fixed.get(key, value)
+                actual = values[key]
+                where = f'{graph}.yaml {spec.name}.{key}: node has {actual!r}, file {value!r}'
+                if isinstance(value, float):
+                    assert actual == pytest.approx(value), where
+                elif isinstance(value, list):
+                    assert list(actual) == value, where
+                else:
+                    assert actual == value, where
+            assert processes[spec.name].poll() is None, f'{spec.name} exited'
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        for process in processes.values():
+            process.terminate()
+        for process in processes.values():
+            try:
+                process.wait(10)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+        time.sleep(0.1)
+    if missing:  # the nodes that exist passed; say clearly that some were not checked
+        pytest.skip(f'node modules not written yet, their blocks unchecked: {missing}')
+
+
+def test_launch_files_build_their_graph_from_the_shared_description():
+    launch_folder = Path(__file__).resolve().parents[1] / 'launch'
+    for graph in GRAPHS:
+        text = (launch_folder / f'{graph}.launch.py').read_text()
+        compile(text, f'{graph}.launch.py', 'exec')
+        assert 'def generate_launch_description' in text
+        assert f"graph_launch_description('{graph}')" in text
+    for graph in GRAPHS.values():
+        for argument in graph.arguments:
+            assert argument.description.strip(), f'{graph.name}: {argument.name} undocumented'
