@@ -52,7 +52,7 @@ class FaultPlan:
     random_garbage : float
         Insert 1..40 fully random bytes (may form false candidates: counts approximate).
     truncate : float
-        Send only the first 1..n-1 bytes of the scan's frame (or line).
+        Send only the first 1..n-2 bytes of the scan's frame (or line).
     bitflip : float
         Flip one random bit of the scan's frame (binary) / replace a key (ASCII).
     gap : float
@@ -408,7 +408,9 @@ class EmulatedSensor:
             log.dropped += 1
             return
         if fault == 'truncate':
-            cut = self._random.randint(1, len(data) - 1)
+            # at least 2 bytes missing: a single missing CRC byte could be supplied by
+            # the next byte on the wire (1 in 256) and the frame would survive
+            cut = self._random.randint(1, len(data) - 2)
             if self.protocol_name == 'binary':
                 self._out += data[:cut]
                 log.dropped += 1
