@@ -1,0 +1,570 @@
+"""ROS 2 shell around :class:`forte_control.state_machine.GraspStateMachine`.
+
+Serves the ``grasp`` action (forte_msgs/action/Grasp), publishes ``grasp/state``
+(GraspState, reliable + transient local, depth 1), ``gripper/command`` (ServoCommand) and
+``arm/cmd_vel`` (TwistStamped, ``linear.z`` = lift speed, frame ``arm_frame_id``), subscribes
+``tactile/state`` (TactileState) and ``joint_states`` (JointState), and serves
+``grasp/reset_fault`` (forte_msgs/srv/ResetFault). Where ``control_msgs`` is installed it
+also serves ``gripper_cmd`` (control_msgs/action/GripperCommand) so MoveIt can drive the
+gripper.
+
+Threading: every callback that touches the state machine (subscriptions, the 20 Hz control
+timer, the reset service, goal/cancel callbacks) runs under one lock; the action's execute
+callback only waits for an event and publishes feedback, in its own reentrant group, so a
+running goal never blocks the control callbacks. Run it in a MultiThreadedExecutor (``main``
+does).
+
+Slip reaction: a TactileState carrying ``slip`` during LIFTING / HOLDING steps the machine
+inside the subscription callback and publishes the tightening command from there, without
+waiting for the control timer.
+"""
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections import deque
+from dataclasses import fields, replace
+
+import rclpy
+from geometry_msgs.msg import TwistStamped
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    ParameterDescriptor,
+    ParameterType,
+    SetParametersResult,
+)
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+
+from forte_control.state_machine import (
+    ACTIVE_STATES,
+    HARD_MAX_CURRENT,
+    HARD_MAX_FORCE,
+    HARD_MAX_FRESHNESS,
+    HARD_MAX_LIFT_DISTANCE,
+    HARD_MAX_LIFT_SPEED,
+    HARD_MAX_SERVO_SPEED,
+    HARD_MAX_SLIP_INCREMENT,
+    HARD_MAX_TIGHTENING,
+    ControlInputs,
+    Controller,
+    ControllerParams,
+    ControlOutputs,
+    GraspGoal,
+    GraspState,
+    GraspStateMachine,
+    JointInput,
+    Outcome,
+    PerceptionInput,
+)
+from forte_msgs.action import Grasp
+from forte_msgs.msg import GraspState as GraspStateMsg
+from forte_msgs.msg import ServoCommand, TactileState
+from forte_msgs.srv import ResetFault
+
+try:  # standard gripper action for MoveIt, only where control_msgs is installed
+    from control_msgs.action import GripperCommand
+except ImportError:  # pragma: no cover - depends on the installation
+    GripperCommand = None
+
+#: Descriptions and (low, high) ranges of the ControllerParams fields exposed as parameters.
+PARAMETER_DOCS: dict[str, tuple[str, tuple[float, float] | None]] = {
+    'closing_speed': ('servo command ramp while closing to contact [rad/s]',
+                      (0.0, HARD_MAX_SERVO_SPEED)),
+    'contact_mode': ("contact needed on 'either' finger (paper: any channel) or 'both'", None),
+    'min_angle': ('most closed servo command allowed [rad]', (0.0, math.pi)),
+    'no_contact_settle': ('wait at min_angle before NO_CONTACT [s]', (0.0, 10.0)),
+    'loading_speed': ('servo command ramp while loading the initial force [rad/s]',
+                      (0.0, HARD_MAX_SERVO_SPEED)),
+    'initial_force': ('initial force f_init loaded after contact [N]', (0.0, HARD_MAX_FORCE)),
+    'initial_force_mode': ("'relative' (f_init above the force at contact) or 'absolute'",
+                           None),
+    'invalid_force_timeout': ('longest wait for a valid force while loading [s]', (0.0, 5.0)),
+    'lift_speed': ('arm lift speed [m/s]', (0.0, HARD_MAX_LIFT_SPEED)),
+    'lift_distance': ('lift height that counts as success [m]', (0.0, HARD_MAX_LIFT_DISTANCE)),
+    'hold_duration': ('time held at the lift height before LIFTED [s]', (0.0, 600.0)),
+    'slip_increment': ('servo tightening per slip event (paper: 0.88 deg) [rad]',
+                       (0.0, HARD_MAX_SLIP_INCREMENT)),
+    'slip_refractory': ('minimum time between two slip tightenings [s]', (0.0, 10.0)),
+    'slip_speed': ('servo profile velocity of a slip tightening [rad/s]',
+                   (0.0, HARD_MAX_SERVO_SPEED)),
+    'drop_force_fraction': ('drop when force < fraction x reference force', (0.0, 1.0)),
+    'drop_min_reference_force': ('force drop detector armed above this reference [N]',
+                                 (0.0, HARD_MAX_FORCE)),
+    'drop_level_fraction': ('drop when deformation < fraction x reference', (0.0, 1.0)),
+    'drop_min_reference_level': ('deformation drop detector armed above this [-1..1]',
+                                 (0.0, 2.0)),
+    'drop_on_contact_loss': ('also detect a drop when both contact flags are false', None),
+    'drop_confirm_time': ('a drop condition must persist this long [s]', (0.0, 10.0)),
+    'on_off_closing_speed': ('constant closing speed of the ON_OFF controller [rad/s]',
+                             (0.0, HARD_MAX_SERVO_SPEED)),
+    'on_off_settle': ('ON_OFF wait at theta = 0 before lifting [s]', (0.0, 10.0)),
+    'open_angle': ('servo command when releasing [rad]', (0.0, math.pi)),
+    'release_speed': ('servo speed when releasing [rad/s]', (0.0, HARD_MAX_SERVO_SPEED)),
+    'release_tolerance': ('joint angle tolerance that ends RELEASING [rad]', (0.0, 1.0)),
+    'release_timeout': ('longest RELEASING [s]', (0.0, 60.0)),
+    'max_force': ('grip force cap [N]', (0.0, HARD_MAX_FORCE)),
+    'max_tightening': ('cap on total slip tightening [rad]', (0.0, HARD_MAX_TIGHTENING)),
+    'max_lift_distance': ('lift height cap [m]', (0.0, HARD_MAX_LIFT_DISTANCE)),
+    'max_lift_speed': ('largest lift speed a goal may request [m/s]', (0.0, HARD_MAX_LIFT_SPEED)),
+    'perception_timeout': ('perception freshness bound [s]', (0.0, HARD_MAX_FRESHNESS)),
+    'joint_state_timeout': ('joint state freshness bound [s]', (0.0, HARD_MAX_FRESHNESS)),
+    'invalid_input_timeout': ('perception data_valid false this long -> fault [s]', (0.0, 5.0)),
+    'timeout': ('whole-grasp timeout [s]', (0.0, 3600.0)),
+    'max_current': ('servo current limit sent with every command [A]', (0.0, HARD_MAX_CURRENT)),
+}
+
+CONTROLLER_FIELDS = [item.name for item in fields(ControllerParams)]
+
+
+def _float_descriptor(description: str, bounds: tuple[float, float] | None,
+                      read_only: bool = False) -> ParameterDescriptor:
+    descriptor = ParameterDescriptor(description=description, read_only=read_only)
+    if bounds is not None:
+        descriptor.floating_point_range = [FloatingPointRange(
+            from_value=float(bounds[0]), to_value=float(bounds[1]), step=0.0)]
+    return descriptor
+
+
+def stamp_to_seconds(stamp) -> float:
+    """builtin_interfaces/Time -> float seconds (NaN for a zero stamp, i.e. never set)."""
+    if stamp.sec == 0 and stamp.nanosec == 0:
+        return math.nan
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+class GraspControllerNode(Node):
+    """The FORTE grasp controller node (see the module docstring)."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('grasp_controller', **kwargs)
+        defaults = ControllerParams()
+        for name in CONTROLLER_FIELDS:
+            description, bounds = PARAMETER_DOCS[name]
+            value = getattr(defaults, name)
+            if isinstance(value, bool):
+                self.declare_parameter(name, value, ParameterDescriptor(description=description))
+            elif isinstance(value, str):
+                self.declare_parameter(name, value, ParameterDescriptor(description=description))
+            else:
+                self.declare_parameter(name, float(value),
+                                       _float_descriptor(description, bounds))
+        self.declare_parameter('control_rate', 20.0, _float_descriptor(
+            'rate of the control step and of arm velocity commands [Hz]', (1.0, 200.0),
+            read_only=True))
+        self.declare_parameter('feedback_rate', 10.0, _float_descriptor(
+            'rate of action feedback and grasp/state messages [Hz]', (0.1, 100.0),
+            read_only=True))
+        self.declare_parameter('step_on_perception', True, ParameterDescriptor(
+            description='also step the state machine on every tactile/state message (slip '
+                        'messages are always handled at once)'))
+        self.declare_parameter('arm_frame_id', 'base_link', ParameterDescriptor(
+            description="frame_id of arm/cmd_vel (the arm's base frame)"))
+        self.declare_parameter('gripper_frame_id', 'forte_base_link', ParameterDescriptor(
+            description='frame_id of grasp/state and gripper/command'))
+        self.declare_parameter('joint_names', ['forte_left_finger_joint',
+                                               'forte_right_finger_joint'],
+                               ParameterDescriptor(
+                                   description='joints whose mean position is the servo angle',
+                                   type=ParameterType.PARAMETER_STRING_ARRAY, read_only=True))
+        self.declare_parameter('dry_run', False, ParameterDescriptor(
+            description='compute everything but publish zero arm velocity and no servo '
+                        'commands (bag replay); refused while a grasp is active'))
+
+        self._lock = threading.RLock()
+        self._machine = GraspStateMachine(self._read_controller_params())
+        self._perception: PerceptionInput | None = None
+        self._slip_pending = False
+        self._joint: JointInput | None = None
+        self._joint_names = list(self.get_parameter('joint_names').value)
+        self._dry_run = bool(self.get_parameter('dry_run').value)
+        self._step_on_perception = bool(self.get_parameter('step_on_perception').value)
+        self._last_outputs: ControlOutputs | None = None
+        self._last_state_published: tuple | None = None
+        self._was_active = False
+        self._done_event = threading.Event()
+        self._goal_start = 0.0
+        self._active_goal = None
+        self.counters = {'joint_states_without_joints': 0, 'tactile_invalid': 0,
+                         'slip_reactions': 0}
+        #: receive -> publish latency of slip tightenings [s] (perf_counter), newest last
+        self.slip_reaction_latency: deque[float] = deque(maxlen=10000)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+
+        reliable10 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                                reliability=ReliabilityPolicy.RELIABLE)
+        reliable50 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50,
+                                reliability=ReliabilityPolicy.RELIABLE)
+        latched = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                             reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self._control_group = MutuallyExclusiveCallbackGroup()
+        self._action_group = ReentrantCallbackGroup()
+        self._servo_pub = self.create_publisher(ServoCommand, 'gripper/command', reliable10)
+        self._arm_pub = self.create_publisher(TwistStamped, 'arm/cmd_vel', reliable10)
+        self._state_pub = self.create_publisher(GraspStateMsg, 'grasp/state', latched)
+        self.create_subscription(TactileState, 'tactile/state', self._on_tactile, reliable50,
+                                 callback_group=self._control_group)
+        self.create_subscription(JointState, 'joint_states', self._on_joint_state, reliable10,
+                                 callback_group=self._control_group)
+        self.create_service(ResetFault, 'grasp/reset_fault', self._on_reset_fault,
+                            callback_group=self._control_group)
+        control_rate = float(self.get_parameter('control_rate').value)
+        self._feedback_period = 1.0 / float(self.get_parameter('feedback_rate').value)
+        self._timer = self.create_timer(1.0 / control_rate, self._on_timer,
+                                        callback_group=self._control_group)
+        self._state_timer = self.create_timer(self._feedback_period, self._publish_state_timer,
+                                              callback_group=self._control_group)
+        self._action = ActionServer(
+            self, Grasp, 'grasp', execute_callback=self._execute,
+            goal_callback=self._on_goal, cancel_callback=self._on_cancel,
+            callback_group=self._action_group)
+        self._gripper_action = None
+        if GripperCommand is not None:  # pragma: no cover - control_msgs not installed here
+            self._gripper_action = ActionServer(
+                self, GripperCommand, 'gripper_cmd', execute_callback=self._execute_gripper,
+                goal_callback=self._on_gripper_goal, callback_group=self._action_group)
+        self._publish_state(force=True)
+        self.get_logger().info(
+            f'grasp controller ready (dry_run={self._dry_run}, control_msgs '
+            f'{"available" if GripperCommand is not None else "not installed"})')
+
+    # -- parameters ----------------------------------------------------------------------
+    def _read_controller_params(self) -> ControllerParams:
+        values = {}
+        defaults = ControllerParams()
+        for name in CONTROLLER_FIELDS:
+            value = self.get_parameter(name).value
+            default = getattr(defaults, name)
+            values[name] = type(default)(value)
+        return ControllerParams(**values)
+
+    def _on_set_parameters(self, parameters) -> SetParametersResult:
+        with self._lock:
+            if not hasattr(self, '_machine'):
+                return SetParametersResult(successful=True)
+            changes = {}
+            defaults = ControllerParams()
+            for parameter in parameters:
+                if parameter.name in CONTROLLER_FIELDS:
+                    default = getattr(defaults, parameter.name)
+                    try:
+                        changes[parameter.name] = type(default)(parameter.value)
+                    except (TypeError, ValueError) as error:
+                        return SetParametersResult(successful=False,
+                                                   reason=f'{parameter.name}: {error}')
+                elif parameter.name == 'dry_run':
+                    if self._machine.state in ACTIVE_STATES:
+                        return SetParametersResult(
+                            successful=False, reason='dry_run cannot change during a grasp')
+            if changes:
+                ok, reason = self._machine.set_params(replace(self._machine.params, **changes))
+                if not ok:
+                    return SetParametersResult(successful=False, reason=reason)
+            for parameter in parameters:
+                if parameter.name == 'dry_run':
+                    self._dry_run = bool(parameter.value)
+                elif parameter.name == 'step_on_perception':
+                    self._step_on_perception = bool(parameter.value)
+            return SetParametersResult(successful=True)
+
+    # -- inputs --------------------------------------------------------------------------
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _on_tactile(self, msg: TactileState) -> None:
+        received = time.perf_counter()
+        with self._lock:
+            if not msg.data_valid:
+                self.counters['tactile_invalid'] += 1
+            self._slip_pending = self._slip_pending or bool(msg.slip)
+            self._perception = PerceptionInput(
+                stamp=stamp_to_seconds(msg.header.stamp), force=float(msg.force),
+                force_valid=bool(msg.force_valid),
+                contact=(bool(msg.contact[0]), bool(msg.contact[1])),
+                slip=self._slip_pending, slip_active=bool(msg.slip_active),
+                data_valid=bool(msg.data_valid), filtered=tuple(float(v) for v in msg.filtered),
+                finger_variance=(float(msg.finger_variance[0]), float(msg.finger_variance[1])))
+            reacting = msg.slip and self._machine.state in (GraspState.LIFTING,
+                                                            GraspState.HOLDING)
+            if reacting or (self._step_on_perception and self._machine.state in ACTIVE_STATES):
+                outputs = self._step()
+                if outputs.slip_reacted:
+                    self.slip_reaction_latency.append(time.perf_counter() - received)
+                    self.counters['slip_reactions'] += 1
+
+    def _on_joint_state(self, msg: JointState) -> None:
+        positions = [msg.position[i] for i, name in enumerate(msg.name)
+                     if name in self._joint_names and i < len(msg.position)]
+        if not positions:
+            self.counters['joint_states_without_joints'] += 1
+            return
+        with self._lock:
+            self._joint = JointInput(stamp=stamp_to_seconds(msg.header.stamp),
+                                     theta=float(sum(positions) / len(positions)))
+
+    def _inputs(self) -> ControlInputs:
+        return ControlInputs(perception=self._perception, joint=self._joint)
+
+    # -- stepping and outputs ------------------------------------------------------------
+    def _step(self) -> ControlOutputs:
+        """Step the machine with the latest inputs and publish (lock held)."""
+        outputs = self._machine.step(self._inputs(), self._now())
+        self._consume_slip()
+        self._apply(outputs)
+        return outputs
+
+    def _consume_slip(self) -> None:
+        self._slip_pending = False
+        if self._perception is not None and self._perception.slip:
+            self._perception = replace(self._perception, slip=False)
+
+    def _on_timer(self) -> None:
+        with self._lock:
+            outputs = self._step()
+            if self._machine.state in ACTIVE_STATES or outputs.finished:
+                self._publish_arm(outputs.arm_velocity)
+
+    def _apply(self, outputs: ControlOutputs) -> None:
+        """Publish what changed: servo command at once, arm stop at once, state."""
+        self._last_outputs = outputs
+        active = outputs.state in ACTIVE_STATES
+        if outputs.servo is not None and outputs.servo_changed and not self._dry_run:
+            msg = ServoCommand()
+            msg.header.stamp = self.get_clock().now().to_msg()
+            msg.header.frame_id = str(self.get_parameter('gripper_frame_id').value)
+            msg.position = outputs.servo.position
+            msg.max_current = outputs.servo.max_current
+            msg.profile_velocity = outputs.servo.profile_velocity
+            self._servo_pub.publish(msg)
+        if self._was_active and not active:
+            self._publish_arm(0.0)  # stop immediately, do not wait for the timer
+        self._was_active = active
+        if outputs.finished:
+            self._done_event.set()
+        self._publish_state()
+
+    def _publish_arm(self, velocity: float) -> None:
+        msg = TwistStamped()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.frame_id = str(self.get_parameter('arm_frame_id').value)
+        msg.twist.linear.z = 0.0 if self._dry_run else float(velocity)
+        self._arm_pub.publish(msg)
+
+    def _state_msg(self) -> GraspStateMsg:
+        out = self._last_outputs
+        msg = GraspStateMsg()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.frame_id = str(self.get_parameter('gripper_frame_id').value)
+        msg.state = int(self._machine.state)
+        msg.fault_flags = int(self._machine.fault_flags)
+        msg.last_outcome = int(self._machine.last_outcome)
+        if out is not None:
+            msg.controller = int(out.controller)
+            msg.target_force = float(out.target_force) if math.isfinite(out.target_force) \
+                else 0.0
+            msg.estimated_force = float(out.estimated_force) \
+                if math.isfinite(out.estimated_force) else 0.0
+            msg.force_valid = bool(out.force_valid)
+            msg.servo_command = float(out.servo.position) if out.servo is not None else math.nan
+            msg.tightening = float(out.tightening)
+            msg.lift_height = float(out.lift_height)
+            msg.slip_events = int(out.slip_events)
+            msg.message = out.message
+        else:
+            msg.servo_command = math.nan
+            msg.message = 'idle'
+        return msg
+
+    def _publish_state(self, force: bool = False) -> None:
+        msg = self._state_msg()
+        key = (msg.state, msg.fault_flags, msg.last_outcome, msg.message, msg.slip_events)
+        if force or key != self._last_state_published:
+            self._state_pub.publish(msg)
+            self._last_state_published = key
+
+    def _publish_state_timer(self) -> None:
+        with self._lock:
+            self._publish_state(force=True)
+
+    # -- reset service -------------------------------------------------------------------
+    def _on_reset_fault(self, request, response):
+        with self._lock:
+            ok, message, cleared = self._machine.reset_fault(self._now())
+            response.success = bool(ok)
+            response.message = message
+            response.cleared_flags = int(cleared)
+            self._last_outputs = self._machine.step(self._inputs(), self._now())
+            self._publish_state(force=True)
+        return response
+
+    # -- Grasp action --------------------------------------------------------------------
+    @staticmethod
+    def goal_from_msg(request) -> GraspGoal:
+        """forte_msgs Grasp goal -> :class:`GraspGoal`."""
+        return GraspGoal(
+            controller=request.controller, initial_force=request.initial_force,
+            lift_speed=request.lift_speed, lift_distance=request.lift_distance,
+            slip_increment=request.slip_increment, max_tightening=request.max_tightening,
+            max_force=request.max_force, timeout=request.timeout,
+            release_after=request.release_after)
+
+    def _on_goal(self, request) -> GoalResponse:
+        with self._lock:
+            if self._active_goal is not None or self._machine.state in ACTIVE_STATES:
+                self.get_logger().warning('goal rejected: a grasp is in progress')
+                return GoalResponse.REJECT
+            if self._machine.state == GraspState.FAULT:
+                self.get_logger().warning('goal rejected: fault latched, call grasp/reset_fault')
+                return GoalResponse.REJECT
+            params, reason = self._machine.effective_params(self.goal_from_msg(request))
+            if params is None:
+                self.get_logger().warning(f'goal rejected: {reason}')
+                return GoalResponse.REJECT
+            return GoalResponse.ACCEPT
+
+    def _on_cancel(self, goal_handle) -> CancelResponse:
+        with self._lock:
+            if goal_handle is self._active_goal:
+                outputs = self._machine.cancel(self._now())
+                self._apply(outputs)
+                self._publish_arm(0.0)
+        return CancelResponse.ACCEPT
+
+    def _execute(self, goal_handle):
+        goal = self.goal_from_msg(goal_handle.request)
+        with self._lock:
+            self._done_event.clear()
+            ok, reason = self._machine.start(goal, self._now(), self._inputs())
+            if ok:
+                self._active_goal = goal_handle
+                self._goal_start = time.monotonic()
+                self._apply(self._machine.step(self._inputs(), self._now()))
+        if not ok:
+            self.get_logger().warning(f'grasp refused: {reason}')
+            goal_handle.abort()
+            return self._result(Outcome.FAULT, f'refused: {reason}', 0.0)
+        self.get_logger().info(f'grasp started ({Controller(goal.controller).name})')
+        feedback = Grasp.Feedback()
+        while not self._done_event.wait(self._feedback_period):
+            if not rclpy.ok():
+                break
+            with self._lock:
+                out = self._last_outputs
+                perception = self._perception
+            if out is None:
+                continue
+            feedback.state = int(out.state)
+            feedback.estimated_force = float(out.estimated_force) \
+                if math.isfinite(out.estimated_force) else 0.0
+            feedback.slip = bool(perception.slip) if perception is not None else False
+            if perception is not None:
+                feedback.finger_variance = [float(v) for v in perception.finger_variance]
+            feedback.servo_command = float(out.servo.position) if out.servo is not None \
+                else math.nan
+            feedback.lift_height = float(out.lift_height)
+            feedback.slip_events = int(out.slip_events)
+            goal_handle.publish_feedback(feedback)
+        with self._lock:
+            out = self._last_outputs
+            self._active_goal = None
+            duration = time.monotonic() - self._goal_start
+        outcome = Outcome(int(out.outcome)) if out is not None else Outcome.FAULT
+        if outcome == Outcome.CANCELED:
+            # the server marks the goal CANCELING right after _on_cancel returns
+            deadline = time.monotonic() + 2.0
+            while not goal_handle.is_cancel_requested and time.monotonic() < deadline:
+                time.sleep(0.002)
+        if outcome == Outcome.CANCELED and goal_handle.is_cancel_requested:
+            goal_handle.canceled()
+        elif outcome == Outcome.LIFTED:
+            goal_handle.succeed()
+        else:
+            goal_handle.abort()
+        self.get_logger().info(f'grasp finished: {outcome.name}: {out.message}')
+        return self._result(outcome, out.message, duration, out)
+
+    @staticmethod
+    def _result(outcome: Outcome, message: str, duration: float,
+                out: ControlOutputs | None = None):
+        result = Grasp.Result()
+        result.outcome = int(outcome)
+        result.message = message
+        result.duration = float(duration)
+        if out is not None:
+            result.final_force = float(out.estimated_force) \
+                if math.isfinite(out.estimated_force) else 0.0
+            result.lift_height = float(out.lift_height)
+            result.slip_events = int(out.slip_events)
+            result.tightening = float(out.tightening)
+        return result
+
+    # -- control_msgs/GripperCommand (MoveIt), only where installed ----------------------
+    def _on_gripper_goal(self, request) -> GoalResponse:  # pragma: no cover
+        with self._lock:
+            if self._machine.state in ACTIVE_STATES or self._machine.state == GraspState.FAULT:
+                return GoalResponse.REJECT
+            position = float(request.command.position)
+            params = self._machine.params
+            if not math.isfinite(position) or not params.min_angle <= position <= math.pi:
+                return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
+
+    def _execute_gripper(self, goal_handle):  # pragma: no cover
+        """Move the servo to ``command.position`` [rad]; ``max_effort`` [A] caps the current."""
+        params = self._machine.params
+        position = float(goal_handle.request.command.position)
+        effort = float(goal_handle.request.command.max_effort)
+        current = min(effort, params.max_current) if effort > 0.0 else params.max_current
+        if not self._dry_run:
+            msg = ServoCommand()
+            msg.header.stamp = self.get_clock().now().to_msg()
+            msg.position = position
+            msg.max_current = current
+            msg.profile_velocity = params.release_speed
+            self._servo_pub.publish(msg)
+        deadline = time.monotonic() + params.release_timeout
+        result = GripperCommand.Result()
+        last = math.nan
+        stalled = False
+        while time.monotonic() < deadline:
+            with self._lock:
+                joint = self._joint
+            if joint is not None:
+                if abs(joint.theta - position) <= params.release_tolerance:
+                    break
+                stalled = abs(joint.theta - last) < 1e-4
+                last = joint.theta
+            time.sleep(0.05)
+        result.position = float(last) if math.isfinite(last) else position
+        result.reached_goal = math.isfinite(last) and abs(last - position) \
+            <= params.release_tolerance
+        result.stalled = bool(stalled and not result.reached_goal)
+        goal_handle.succeed()
+        return result
+
+
+def main(args=None) -> None:
+    """Run the grasp controller node in a multi-threaded executor."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = GraspControllerNode()
+        executor = MultiThreadedExecutor(num_threads=3)
+        executor.add_node(node)
+        executor.spin()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()
