@@ -20,6 +20,8 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', share('config/*.yaml')),
         ('share/' + package_name + '/launch', share('launch/*.py')),
+        ('share/' + package_name + '/urdf', share('urdf/*')),
+        ('share/' + package_name + '/meshes', share('meshes/*')),
     ],
     install_requires=['setuptools'],
     zip_safe=False,
