@@ -1,0 +1,360 @@
+"""The paper's evaluation reproduced in simulation: ``python -m forte_bringup.evaluate``.
+
+1. Grasp benchmark: every object of the simulated catalogue (31 types in the paper's 4
+   categories) x ``--trials`` trials (10 as in the paper) x the three controllers
+   (On-Off, W/o Slip = NO_SLIP, FORTE), each trial a closed loop of simulator +
+   perception + grasp state machine without ROS (:func:`forte_bringup.closed_loop.run_trial`),
+   spread over ``--jobs`` processes. Tables: grasp success per category and overall;
+   FORTE's trial-wise slip detection accuracy / precision / recall / F1 against the
+   simulator's ground truth; the slip detection latency distribution (true onset to the
+   first slip flag, p50 / p90 / max).
+2. Force estimation: 10-fold trial-wise cross-validation of the SVR force model on the
+   simulated calibration rig (6 indentors), with the history features (24) and without
+   them (latest frame only, 6), as in the paper.
+
+Every table prints the paper's numbers next to ours. Results (every trial, the summaries,
+timings) go to ``out/evaluation/results.json`` and the tables to
+``out/evaluation/results.md``. ``--quick`` runs a subset (a few objects per category,
+2 trials, a small force CV) in under a minute for CI.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from multiprocessing import get_context
+from pathlib import Path
+
+import numpy as np
+
+from forte_bringup.metrics import (
+    TrialRecord,
+    force_table,
+    latency_stats,
+    latency_table,
+    result_table,
+    summary_json,
+)
+
+CONTROLLERS = ('ON_OFF', 'NO_SLIP', 'FORTE')
+
+
+@dataclass(frozen=True)
+class Task:
+    """One grasp trial to run."""
+
+    object_name: str
+    category: str
+    controller: str
+    trial: int
+    seed: int
+
+
+def benchmark_objects(quick: bool) -> list[tuple[str, str]]:
+    """(object, category) pairs of the benchmark; ``quick``: the first two per category."""
+    from forte_driver.sim import CATEGORIES, objects_in_category
+
+    pairs = []
+    for category in CATEGORIES:
+        names = objects_in_category(category)
+        pairs += [(name, category) for name in (names[:2] if quick else names)]
+    return pairs
+
+
+def make_tasks(objects: Sequence[tuple[str, str]], controllers: Sequence[str], trials: int,
+               seed: int) -> list[Task]:
+    """Every (object, controller, trial); the seed depends on object and trial only, so the
+    three controllers face the same placement, material spread and noise in a trial."""
+    tasks = []
+    for object_index, (name, category) in enumerate(objects):
+        for trial in range(trials):
+            trial_seed = seed + 1000 * object_index + trial
+            tasks += [Task(name, category, controller, trial, trial_seed)
+                      for controller in controllers]
+    return tasks
+
+
+def run_task(task: Task) -> TrialRecord:
+    """Run one closed-loop trial (in a worker process) and condense it to a record."""
+    from forte_bringup.closed_loop import run_trial
+
+    result = run_trial(object_name=task.object_name, controller=task.controller,
+                       seed=task.seed, trial=task.trial)
+    return record_from_result(result, task)
+
+
+def _get(result: object, name: str, default: object = None) -> object:
+    if isinstance(result, dict):
+        return result.get(name, default)
+    return getattr(result, name, default)
+
+
+def record_from_result(result: object, task: Task) -> TrialRecord:
+    """A :class:`TrialRecord` from a ``run_trial`` result (attribute or dict access).
+
+    Uses the result's ``success``, ``outcome``, ``object_state``, ``slip_true``,
+    ``slip_predicted``, ``slip_onset_times`` / ``slip_flag_times`` (for latencies; when
+    present), ``max_true_force`` and ``duration`` fields.
+    """
+    from forte_bringup.metrics import detection_latencies
+
+    onsets = list(_get(result, 'slip_onset_times', []) or [])
+    flags = list(_get(result, 'slip_flag_times', []) or [])
+    latencies, missed = detection_latencies(onsets, flags) if onsets else ([], 0)
+    outcome = _get(result, 'outcome', '')
+    state = _get(result, 'object_state', '')
+    return TrialRecord(
+        object_name=task.object_name, category=task.category, controller=task.controller,
+        trial=task.trial, success=bool(_get(result, 'success', False)),
+        outcome=str(getattr(outcome, 'name', outcome)),
+        object_state=str(getattr(state, 'name', state)),
+        slip_true=bool(_get(result, 'slip_true', bool(onsets))),
+        slip_predicted=bool(_get(result, 'slip_predicted', bool(flags))),
+        latencies=latencies, missed_onsets=missed,
+        max_true_force=float(_get(result, 'max_true_force', math.nan)),
+        duration=float(_get(result, 'duration', math.nan)),
+    )
+
+
+def run_benchmark(tasks: Sequence[Task], jobs: int,
+                  progress: Callable[[int, int, TrialRecord], None] | None = None,
+                  runner: Callable[[Task], TrialRecord] = run_task) -> list[TrialRecord]:
+    """Run every task, in ``jobs`` worker processes (1: in this process)."""
+    records: list[TrialRecord] = []
+    if jobs <= 1:
+        for task in tasks:
+            records.append(runner(task))
+            if progress:
+                progress(len(records), len(tasks), records[-1])
+        return records
+    with get_context('spawn' if sys.platform == 'darwin' else 'fork').Pool(jobs) as pool:
+        for record in pool.imap_unordered(runner, tasks, chunksize=1):
+            records.append(record)
+            if progress:
+                progress(len(records), len(tasks), record)
+    order = {(t.object_name, t.controller, t.trial): i for i, t in enumerate(tasks)}
+    records.sort(key=lambda r: order[(r.object_name, r.controller, r.trial)])
+    return records
+
+
+# --- force estimation ----------------------------------------------------------------------
+def calibration_dataset(trials_per_indentor: int, hold_seconds: float, seed: int,
+                        indentors: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+    """The calibration rig scene in the dataset format of docs/contracts.md.
+
+    Per trial: 1 s quiet (tare), close over 0.5 s to a random angle drawn uniformly between
+    fully closed and just touching (the paper's protocol), hold ``hold_seconds``.
+    """
+    from forte_driver.sim import INDENTORS, SAMPLE_RATE, make_scene
+
+    names = list(indentors or INDENTORS)
+    rng = np.random.default_rng(seed)
+    frames, force, trial_ids, indentor_ids = [], [], [], []
+    tare = int(SAMPLE_RATE)
+    chunk = 200
+    trial_id = 0
+    for indentor_index, name in enumerate(names):
+        for trial in range(trials_per_indentor):
+            scene = make_scene('calibration', indentor=name, seed=seed + 7919 * trial_id,
+                               trial=trial)
+            start = scene.initial_angle
+            target = float(rng.uniform(0.0, scene.theta_zero_force))
+            parts_f, parts_y = [], []
+            total = tare + int(0.5 * SAMPLE_RATE) + int(hold_seconds * SAMPLE_RATE)
+            done = 0
+            while done < total:
+                t = max(0, done - tare) / SAMPLE_RATE
+                command = start if done < tare else start + (target - start) * min(t / 0.5, 1)
+                block, truth = scene.step(min(chunk, total - done), command, 0.0)
+                parts_f.append(block)
+                parts_y.append(truth.load_cell_force)
+                done += block.shape[0]
+            trial_frames = np.concatenate(parts_f)
+            frames.append(trial_frames)
+            force.append(np.concatenate(parts_y))
+            trial_ids.append(np.full(trial_frames.shape[0], trial_id, np.int32))
+            indentor_ids.append(np.full(trial_frames.shape[0], indentor_index, np.int32))
+            trial_id += 1
+    return {
+        'frames': np.concatenate(frames).astype(np.float32),
+        'force': np.concatenate(force).astype(np.float32),
+        'trial': np.concatenate(trial_ids),
+        'indentor': np.concatenate(indentor_ids),
+        'indentor_names': np.array(names),
+        'fs': np.float64(SAMPLE_RATE),
+        'tare_samples': np.int64(tare),
+    }
+
+
+def trial_features(dataset: dict[str, np.ndarray], stride: int) -> tuple[np.ndarray, ...]:
+    """Per the contract: tare each trial, median 11, 24 features at full rate, subsample.
+
+    Returns
+    -------
+    features : (m, 24), force : (m,), trial : (m,), indentor : (m,)
+    """
+    from forte_perception.force import force_features
+    from forte_perception.median import running_median
+
+    fs = float(dataset['fs'])
+    tare = int(dataset['tare_samples'])
+    out_x, out_y, out_t, out_i = [], [], [], []
+    for trial in np.unique(dataset['trial']):
+        rows = dataset['trial'] == trial
+        raw = dataset['frames'][rows].astype(np.float64)
+        tared = raw - raw[:tare].mean(axis=0)
+        features = force_features(running_median(tared, 11), fs)
+        keep = np.arange(tare, raw.shape[0], stride)  # after the quiet period
+        out_x.append(features[keep])
+        out_y.append(dataset['force'][rows][keep].astype(np.float64))
+        out_t.append(np.full(keep.size, trial))
+        out_i.append(dataset['indentor'][rows][keep])
+    return (np.concatenate(out_x), np.concatenate(out_y), np.concatenate(out_t),
+            np.concatenate(out_i))
+
+
+def force_cross_validation(dataset: dict[str, np.ndarray], folds: int = 10, stride: int = 100,
+                           seed: int = 0) -> dict[str, dict]:
+    """10-fold trial-wise CV of the SVR force model, with and without history features.
+
+    Trials (not samples) are split into folds, so no trial is both trained and tested on.
+
+    Returns
+    -------
+    dict
+        ``{'with_history': {...}, 'without_history': {...}}``, each with ``rmse``, ``mae``
+        [N], ``per_indentor`` RMSE [N], ``points`` and ``trials``.
+    """
+    from forte_perception.force import ForceModel
+
+    x, y, trial, indentor = trial_features(dataset, stride)
+    trials = np.unique(trial)
+    rng = np.random.default_rng(seed)
+    shuffled = rng.permutation(trials)
+    fold_of = {int(t): i % folds for i, t in enumerate(shuffled)}
+    fold = np.array([fold_of[int(t)] for t in trial])
+    names = [str(n) for n in dataset['indentor_names']]
+    results = {}
+    for key, kind in (('with_history', 'history'), ('without_history', 'latest')):
+        predicted = np.full(y.shape, np.nan)
+        for k in range(folds):
+            test = fold == k
+            if not test.any():
+                continue
+            columns = x if kind == 'history' else x[:, :6]  # latest frame = first 6 columns
+            model = ForceModel.fit(columns[~test], y[~test], kind=kind)
+            predicted[test] = model.predict(x[test])
+        error = predicted - y
+        results[key] = {
+            'rmse': float(np.sqrt(np.mean(error ** 2))),
+            'mae': float(np.mean(np.abs(error))),
+            'per_indentor': {names[i]: float(np.sqrt(np.mean(error[indentor == i] ** 2)))
+                             for i in np.unique(indentor)},
+            'points': int(y.size), 'trials': int(trials.size),
+            'force_range': [float(y.min()), float(y.max())],
+        }
+    return results
+
+
+# --- command line --------------------------------------------------------------------------
+def _progress_printer(started: float) -> Callable[[int, int, TrialRecord], None]:
+    def show(done: int, total: int, record: TrialRecord) -> None:
+        if done == total or done % max(1, total // 20) == 0:
+            elapsed = time.monotonic() - started
+            eta = elapsed / done * (total - done)
+            print(f'  [{done:4d}/{total}] {elapsed:6.1f} s elapsed, ~{eta:5.1f} s left '
+                  f'(last: {record.object_name} {record.controller} '
+                  f'{"lifted" if record.success else record.outcome or "failed"})', flush=True)
+    return show
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point (``python -m forte_bringup.evaluate``, ``forte_evaluate``)."""
+    parser = argparse.ArgumentParser(prog='forte_evaluate', description=__doc__.split('\n')[0])
+    parser.add_argument('--quick', action='store_true', help='CI subset, under a minute')
+    parser.add_argument('--trials', type=int, default=None, help='trials per object (10)')
+    parser.add_argument('--objects', nargs='+', default=None, help='only these objects')
+    parser.add_argument('--controllers', nargs='+', default=list(CONTROLLERS),
+                        choices=CONTROLLERS)
+    parser.add_argument('--jobs', type=int, default=os.cpu_count() or 1)
+    parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--skip-grasp', action='store_true')
+    parser.add_argument('--skip-force', action='store_true')
+    parser.add_argument('--output', type=Path, default=Path('out/evaluation'))
+    args = parser.parse_args(argv)
+
+    trials = args.trials or (2 if args.quick else 10)
+    args.output.mkdir(parents=True, exist_ok=True)
+    results: dict = {'config': {'quick': args.quick, 'trials': trials, 'seed': args.seed,
+                                'jobs': args.jobs, 'controllers': args.controllers},
+                     'timings': {}}
+    markdown = ['# FORTE evaluation in simulation', '']
+
+    if not args.skip_grasp:
+        objects = benchmark_objects(args.quick)
+        if args.objects:
+            objects = [pair for pair in objects if pair[0] in args.objects] or [
+                (name, _category_of(name)) for name in args.objects]
+        tasks = make_tasks(objects, args.controllers, trials, args.seed)
+        print(f'[evaluate] grasp benchmark: {len(objects)} objects x {trials} trials x '
+              f'{len(args.controllers)} controllers = {len(tasks)} closed-loop trials on '
+              f'{args.jobs} process(es)', flush=True)
+        started = time.monotonic()
+        records = run_benchmark(tasks, args.jobs, _progress_printer(started))
+        elapsed = time.monotonic() - started
+        results['timings']['grasp_benchmark_s'] = elapsed
+        forte = [r for r in records if r.controller == 'FORTE']
+        stats = latency_stats([v for r in forte for v in r.latencies],
+                              sum(r.missed_onsets for r in forte))
+        results['grasp'] = summary_json(records)
+        results['slip_latency'] = stats
+        results['trials'] = [r.to_dict() for r in records]
+        table = result_table(records)
+        latency = latency_table(stats)
+        print('\nGrasp success and slip detection (rows "paper": the paper\'s Table)\n'
+              + table, flush=True)
+        print('\nSlip detection latency, true onset to first flag (FORTE trials)\n' + latency,
+              flush=True)
+        markdown += ['## Grasp success and slip detection', '', table, '',
+                     '## Slip detection latency (onset to flag)', '', latency, '',
+                     f'{len(tasks)} trials in {elapsed:.1f} s on {args.jobs} process(es).', '']
+
+    if not args.skip_force:
+        per_indentor = 3 if args.quick else 40
+        hold = 4.0 if args.quick else 12.0
+        indentors = None
+        if args.quick:
+            from forte_driver.sim import INDENTORS
+            indentors = list(INDENTORS)[:4]
+        print(f'\n[evaluate] force model: calibration rig, {per_indentor} trials per indentor, '
+              '10-fold trial-wise CV with and without history features', flush=True)
+        started = time.monotonic()
+        dataset = calibration_dataset(per_indentor, hold, args.seed, indentors)
+        force = force_cross_validation(dataset, folds=10, stride=200 if args.quick else 100,
+                                       seed=args.seed)
+        results['timings']['force_cv_s'] = time.monotonic() - started
+        results['force'] = force
+        table = force_table(force)
+        print(table, flush=True)
+        markdown += ['## Force estimation (10-fold trial-wise CV)', '', table, '']
+
+    (args.output / 'results.json').write_text(json.dumps(results, indent=1, default=float))
+    (args.output / 'results.md').write_text('\n'.join(markdown) + '\n')
+    print(f'\n[evaluate] results: {args.output / "results.json"}, '
+          f'{args.output / "results.md"}', flush=True)
+    return 0
+
+
+def _category_of(name: str) -> str:
+    from forte_driver.sim import OBJECTS
+
+    return OBJECTS[name].category
+
+
+if __name__ == '__main__':
+    sys.exit(main())
