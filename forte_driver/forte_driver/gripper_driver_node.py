@@ -400,6 +400,7 @@ class GripperDriverNode(LifecycleNode):
             return
         if time.monotonic() - self._last_state_time > 1.0:
             self._read_state()  # inactive: no state timer, keep temperature fresh
+        previous = self._hardware_errors
         try:
             self._hardware_errors = self.gripper.read_hardware_errors()
             self._torque = self.gripper.torque_enabled()
@@ -407,6 +408,12 @@ class GripperDriverNode(LifecycleNode):
             self._last_error = str(error)
             self._hardware_errors = {}
             self._torque = {}
+        for servo_id, bits in self._hardware_errors.items():
+            if bits and bits != previous.get(servo_id):
+                self.get_logger().error(
+                    f'servo {servo_id}: hardware error {ct.hardware_error_text(bits)} '
+                    f'(0x{bits:02x}); torque '
+                    f'{"on" if self._torque.get(servo_id) else "OFF (shutdown; reboot needed)"}')
         array = DiagnosticArray()
         array.header.stamp = self.get_clock().now().to_msg()
         array.status = [self._servo_status(finger) for finger in self.gripper.config.fingers]
@@ -465,6 +472,7 @@ class GripperDriverNode(LifecycleNode):
         status.message = (f'state reads failing: {self._last_error}' if failing
                           else ('active' if self._active else 'inactive (holding)'))
         values = {name: str(value) for name, value in self.counters.items()}
+        values['retried_transactions'] = str(self.gripper.retried_transactions)
         values['last_error'] = self._last_error or 'none'
         values['release_on_shutdown'] = str(self.get_parameter('release_on_shutdown').value)
         status.values = [KeyValue(key=k, value=v) for k, v in values.items()]

@@ -27,12 +27,26 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from dynamixel_sdk import COMM_SUCCESS, GroupSyncRead, GroupSyncWrite, PacketHandler, PortHandler
+from dynamixel_sdk import (
+    COMM_RX_CORRUPT,
+    COMM_RX_TIMEOUT,
+    COMM_SUCCESS,
+    GroupSyncRead,
+    GroupSyncWrite,
+    PacketHandler,
+    PortHandler,
+)
 
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import units
 
 PROTOCOL_VERSION = 2.0
+SERIAL_READ_BLOCK_S = 0.001
+"""pyserial read timeout set on the SDK's port [s]. dynamixel-sdk opens the port with
+timeout 0 and polls it in a busy loop while waiting for a status packet (100 % of a core);
+with a 1 ms blocking read the SDK's own packet timeouts are unchanged (they are checked
+between reads) but the waiting thread sleeps in the kernel instead of spinning."""
+RETRIED_RESULTS = (COMM_RX_TIMEOUT, COMM_RX_CORRUPT)
 
 
 class DynamixelError(RuntimeError):
@@ -115,6 +129,10 @@ class GripperConfig:
         Profile Velocity [rad/s] used when a command gives 0.
     profile_acceleration : int
         Profile Acceleration register value (214.577 rev/min^2 units; 0 = unlimited).
+    retries : int
+        Extra attempts of a single-servo transaction (ping, read, write: all idempotent)
+        whose status packet was lost or corrupt. Sync reads of the state are not retried
+        (the next sample follows); sync writes have no status packet.
     """
 
     port: str = '/dev/ttyUSB0'
@@ -127,6 +145,7 @@ class GripperConfig:
     default_current: float = 0.5
     default_profile_velocity: float = 1.0
     profile_acceleration: int = 0
+    retries: int = 2
 
     @property
     def fingers(self) -> tuple[FingerConfig, FingerConfig]:
@@ -174,6 +193,8 @@ class GripperConfig:
                             f'not in (0, velocity_limit={limits.velocity_limit}]')
         if not 0 <= self.profile_acceleration <= ct.PROFILE_ACCELERATION.maximum:
             problems.append('profile_acceleration outside 0..32767')
+        if not 0 <= self.retries <= 10:
+            problems.append(f'retries {self.retries} outside 0..10')
         if problems:
             raise ValueError('; '.join(problems))
 
@@ -354,6 +375,8 @@ class Gripper:
         self._sync_write: GroupSyncWrite | None = None
         self._state_read: GroupSyncRead | None = None
         self._error_read: GroupSyncRead | None = None
+        self.retried_transactions = 0
+        """Single-servo transactions that needed a retry (lost or corrupt status)."""
 
     # -- port --------------------------------------------------------------------
     @property
@@ -373,6 +396,7 @@ class Gripper:
         if not port.setBaudRate(self.config.baud_rate):
             port.closePort()
             raise DynamixelError(f'{self.config.port}: baud rate {self.config.baud_rate} refused')
+        port.ser.timeout = SERIAL_READ_BLOCK_S
         self.port = port
         handler = self.packet_handler
         self._sync_write = GroupSyncWrite(port, handler, ct.COMMAND_BLOCK_START,
@@ -406,17 +430,27 @@ class Gripper:
         if number or (error and not allow_alert):
             raise DynamixelError(f'servo {servo_id}: {what}: {ct.status_error_text(error)}')
 
+    def _transaction(self, function, *args):
+        """Run an idempotent SDK transaction, retrying a lost or corrupt status packet."""
+        for attempt in range(self.config.retries + 1):
+            outcome = function(self._require_port(), *args)
+            if outcome[-2] not in RETRIED_RESULTS:
+                break
+            if attempt < self.config.retries:
+                self.retried_transactions += 1
+        return outcome
+
     def read_register(self, servo_id: int, register: ct.Register) -> int:
         """Read one item of one servo (DynamixelError on failure)."""
-        data, result, error = self.packet_handler.readTxRx(
-            self._require_port(), servo_id, register.address, register.size)
+        data, result, error = self._transaction(
+            self.packet_handler.readTxRx, servo_id, register.address, register.size)
         self._check(servo_id, f'read {register.name}', result, error)
         return ct.decode_value(register, data)
 
     def write_register(self, servo_id: int, register: ct.Register, value: int) -> None:
         """Write one item of one servo and check its status packet."""
-        result, error = self.packet_handler.writeTxRx(
-            self._require_port(), servo_id, register.address, register.size,
+        result, error = self._transaction(
+            self.packet_handler.writeTxRx, servo_id, register.address, register.size,
             list(ct.encode_value(register, value)))
         self._check(servo_id, f'write {register.name}={value}', result, error)
 
@@ -425,8 +459,8 @@ class Gripper:
         or is not an XM430-W350."""
         models = {}
         for finger in self.config.fingers:
-            model, result, error = self.packet_handler.ping(self._require_port(),
-                                                            finger.servo_id)
+            model, result, error = self._transaction(self.packet_handler.ping,
+                                                     finger.servo_id)
             self._check(finger.servo_id, 'ping', result, error)
             if model != ct.MODEL_NUMBER_XM430_W350:
                 raise DynamixelError(f'servo {finger.servo_id} ({finger.name}) is model '

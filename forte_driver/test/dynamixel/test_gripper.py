@@ -174,8 +174,9 @@ def test_command_is_one_sync_write_packet_for_both_servos(bus, gripper):
     assert bus.register_value(2, 'Profile Velocity') == 83  # 2 rad/s / 0.0239809
     # Both fingers arrive; state reports theta in rad on both (mirrored) fingers.
     state = _wait_for(lambda: (lambda s: s if abs(s['left'].theta - 0.5) < 2e-3
-                               and abs(s['right'].theta - 0.5) < 2e-3 else None)(
-        _read_state(gripper)))
+                               and abs(s['right'].theta - 0.5) < 2e-3
+                               and s['left'].raw_velocity == 0 == s['right'].raw_velocity
+                               else None)(_read_state(gripper)))
     assert state['right'].raw_position == 2374 and state['left'].raw_position == 1722
     assert state['left'].theta == pytest.approx(326 * 2 * math.pi / 4096)
     assert state['right'].temperature == 30.0 and state['right'].input_voltage == 12.0
