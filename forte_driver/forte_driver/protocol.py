@@ -437,15 +437,18 @@ def normalise_adc_code(code: int, zero_code: int, half_span_code: int) -> tuple[
 class SequenceTracker:
     """Unwrap 32-bit device sequence numbers and count the frames lost between them.
 
-    The unwrapped sequence is monotonic for the life of the tracker: after a new session
-    (START acknowledged, reconnect, or the device sequence jumping backwards, i.e. a
-    device restart) it continues at the previous value + 1 and nothing is counted as
-    dropped across the session boundary.
+    The unwrapped sequence is monotonic for the life of the tracker. In the first session
+    it equals the device sequence; a later session (START acknowledged, reconnect, or the
+    device sequence jumping backwards, i.e. a device restart) continues at the previous
+    unwrapped value + 1 (+ the device sequence of its first frame if the session is known
+    to start at 0). Nothing is counted as dropped across a session boundary except, for a
+    session started by an acknowledged START (the device restarts at sequence 0), the
+    frames before the first one received.
 
     Attributes
     ----------
     dropped_frames : int
-        Sequence numbers skipped inside sessions [count].
+        Sequence numbers skipped [count].
     sessions : int
         Sessions seen (1 after the first frame) [count].
     sequence_resets : int
@@ -457,12 +460,21 @@ class SequenceTracker:
         self.sessions = 0
         self.sequence_resets = 0
         self._last_device: int | None = None
-        self._last_unwrapped = -1
+        self._last_unwrapped: int | None = None
         self._new_session = True
+        self._from_zero = False
 
-    def start_session(self) -> None:
-        """The next frame starts a new session (no gap is counted before it)."""
+    def start_session(self, from_zero: bool = False) -> None:
+        """The next frame starts a new session.
+
+        Parameters
+        ----------
+        from_zero : bool
+            The device restarted its sequence at 0 (START acknowledged): a first frame with
+            sequence k means k frames were lost.
+        """
         self._new_session = True
+        self._from_zero = from_zero
 
     def update(self, sequence: int) -> tuple[int, int, bool]:
         """Account for one received sequence number.
@@ -472,23 +484,28 @@ class SequenceTracker:
         tuple of (int, int, bool)
             Unwrapped sequence, frames lost right before it, whether it starts a session.
         """
-        if self._new_session or self._last_device is None:
-            self._new_session = False
-            self.sessions += 1
-            gap = 0
-            new_session = True
-        else:
+        new_session = self._new_session or self._last_device is None
+        gap = 0
+        if not new_session:
             gap = (sequence - self._last_device - 1) % SEQUENCE_MODULUS
-            new_session = False
             if gap >= SEQUENCE_MODULUS // 2:  # backwards or repeated: the device restarted
-                self.sessions += 1
                 self.sequence_resets += 1
-                gap = 0
-                new_session = True
+                new_session, gap = True, 0
+        if new_session:
+            self.sessions += 1
+            from_zero = self._from_zero and sequence < SEQUENCE_MODULUS // 2
+            gap = sequence if from_zero else 0
+            if self._last_unwrapped is None:
+                unwrapped = sequence
+            else:
+                unwrapped = self._last_unwrapped + 1 + gap
+            self._new_session = self._from_zero = False
+        else:
+            unwrapped = self._last_unwrapped + 1 + gap
         self._last_device = sequence
-        self._last_unwrapped += 1 + gap
+        self._last_unwrapped = unwrapped
         self.dropped_frames += gap
-        return self._last_unwrapped, gap, new_session
+        return unwrapped, gap, new_session
 
 
 @dataclass
@@ -549,10 +566,11 @@ class StreamAssembler:
         self._ascii_sequence = 0
         self._ready: list[Batch] = []
 
-    def start_session(self) -> None:
-        """End the current batch; the next sample begins a new device session."""
+    def start_session(self, from_zero: bool = False) -> None:
+        """End the current batch; the next sample begins a new device session
+        (``from_zero``: see :meth:`SequenceTracker.start_session`)."""
         self._end_batch()
-        self.tracker.start_session()
+        self.tracker.start_session(from_zero)
         self._last_overruns = None
 
     def _end_batch(self) -> None:

@@ -395,7 +395,7 @@ class SerialSensorNode(LifecycleNode):
         if ack.command == Command.START:
             if ack.token == self._start_token and ack.status == Status.OK:
                 self._start_acknowledged = True
-                self._assembler.start_session()
+                self._assembler.start_session(from_zero=True)
             elif ack.status == Status.BUSY:
                 # still streaming from an earlier session: stop and start again
                 self._send_command(Command.STOP)

@@ -223,17 +223,27 @@ def test_random_garbage_never_yields_a_frame_and_resynchronises():
 
 def test_sequence_tracker_wraps_counts_gaps_and_detects_restart():
     tracker = SequenceTracker()
-    assert tracker.update(0xFFFFFFFE) == (0, 0, True)
-    assert tracker.update(0xFFFFFFFF) == (1, 0, False)
-    assert tracker.update(0) == (2, 0, False)        # wrap, no gap
-    assert tracker.update(5) == (7, 4, False)        # 1..4 lost
+    assert tracker.update(0xFFFFFFFE) == (0xFFFFFFFE, 0, True)
+    assert tracker.update(0xFFFFFFFF) == (0xFFFFFFFF, 0, False)
+    assert tracker.update(0) == (0x100000000, 0, False)        # wrap, no gap
+    assert tracker.update(5) == (0x100000005, 4, False)        # 1..4 lost
     assert tracker.dropped_frames == 4
-    assert tracker.update(3) == (8, 0, True)         # backwards: device restarted
+    assert tracker.update(3) == (0x100000006, 0, True)         # backwards: device restarted
     assert tracker.sequence_resets == 1
     tracker.start_session()
-    assert tracker.update(100) == (9, 0, True)       # new session: nothing counted
+    assert tracker.update(100) == (0x100000007, 0, True)       # new session: nothing counted
     assert tracker.dropped_frames == 4
-    assert tracker.sessions == 3
+    tracker.start_session(from_zero=True)                       # START acknowledged
+    assert tracker.update(2) == (0x100000007 + 3, 2, True)     # scans 0 and 1 were lost
+    assert tracker.dropped_frames == 6
+    assert tracker.sessions == 4
+
+
+def test_sequence_tracker_first_session_keeps_device_numbers():
+    tracker = SequenceTracker()
+    tracker.start_session(from_zero=True)
+    assert tracker.update(3) == (3, 3, True)
+    assert tracker.update(4) == (4, 0, False)
 
 
 def test_assembler_never_spans_a_gap_and_never_invents():
