@@ -118,6 +118,25 @@ class SerialSensorNode(LifecycleNode):
         self._diagnostics_timer = self.create_timer(
             self.get_parameter('diagnostics_period').value, self._publish_diagnostics)
 
+    @property
+    def lifecycle_state(self) -> str:
+        """Current lifecycle state label: unconfigured, inactive, active or finalized."""
+        return self._state_label
+
+    @property
+    def counters(self) -> dict[str, int]:
+        """Cumulative stream counters (the same numbers as in the messages/diagnostics)."""
+        with self._lock:
+            decoder = self._decoder if self._binary else self._ascii
+            return {'received_samples': self._assembler.samples,
+                    'published_samples': self._published_samples,
+                    'published_batches': self._published_batches,
+                    'dropped_frames': self._assembler.dropped_frames,
+                    'corrupt_frames': self._assembler.corrupt_frames,
+                    'device_overruns': self._assembler.device_overruns,
+                    'discarded_bytes': decoder.discarded_bytes,
+                    'reconnects': self._reconnects}
+
     # ---- parameters ---------------------------------------------------------------------
 
     def _declare_parameters(self) -> None:
