@@ -47,6 +47,17 @@ timeout 0 and polls it in a busy loop while waiting for a status packet (100 % o
 with a 1 ms blocking read the SDK's own packet timeouts are unchanged (they are checked
 between reads) but the waiting thread sleeps in the kernel instead of spinning."""
 RETRIED_RESULTS = (COMM_RX_TIMEOUT, COMM_RX_CORRUPT)
+HEADER_PATTERN = b'\xff\xff\xfd'
+"""Bytes that protocol 2.0 requires to be stuffed inside a packet. dynamixel-sdk 4.1.0
+(Python) computes the stuffed packet but transmits the unstuffed one, so the driver
+refuses to send data containing this pattern (its own values never do: positions,
+currents and velocities it writes are small and non-negative)."""
+
+
+def _check_no_stuffing_needed(data: bytes, what: str) -> None:
+    if HEADER_PATTERN in data:
+        raise DynamixelError(f'{what}: data {data.hex()} contains FF FF FD, which needs '
+                             'byte stuffing that dynamixel-sdk 4.1.0 does not transmit')
 
 
 class DynamixelError(RuntimeError):
@@ -449,6 +460,9 @@ class Gripper:
 
     def write_register(self, servo_id: int, register: ct.Register, value: int) -> None:
         """Write one item of one servo and check its status packet."""
+        _check_no_stuffing_needed(bytes([register.address & 0xFF, register.address >> 8])
+                                  + ct.encode_value(register, value),
+                                  f'servo {servo_id}: write {register.name}')
         result, error = self._transaction(
             self.packet_handler.writeTxRx, servo_id, register.address, register.size,
             list(ct.encode_value(register, value)))
@@ -615,6 +629,8 @@ class Gripper:
                      + ct.encode_value(ct.PROFILE_VELOCITY, velocity_units)
                      + ct.encode_value(ct.GOAL_POSITION, raw_positions[finger.servo_id]))
             sync_write.addParam(finger.servo_id, list(block))
+        payload = b''.join(bytes([i]) + bytes(d) for i, d in sync_write.data_dict.items())
+        _check_no_stuffing_needed(payload, 'sync write')
         result = sync_write.txPacket()
         if result != COMM_SUCCESS:
             raise DynamixelError(f'sync write: {self.packet_handler.getTxRxResult(result)}')

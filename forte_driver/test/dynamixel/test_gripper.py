@@ -246,3 +246,11 @@ def test_shutdown_holds_torque_unless_told_to_release(bus):
     releasing.open()
     releasing.shutdown(release=True)
     assert bus.register_value(1, 'Torque Enable') == 0 == bus.register_value(2, 'Torque Enable')
+
+
+def test_data_needing_byte_stuffing_is_refused_before_it_reaches_the_bus(bus, gripper):
+    """dynamixel-sdk 4.1.0 transmits FF FF FD unstuffed; the driver never sends such data."""
+    before = len(bus.packet_log())
+    with pytest.raises(DynamixelError, match='byte stuffing'):
+        gripper.write_register(1, ct.HOMING_OFFSET, -131073)  # bytes FF FF FD FF
+    assert len(bus.packet_log()) == before
