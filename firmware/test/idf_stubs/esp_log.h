@@ -1,0 +1,2 @@
+#pragma once
+#define ESP_LOGW(tag, fmt, ...) ((void)(tag))
