@@ -525,10 +525,16 @@ static void test_tx_staging_partial_writes(void)
     const uint8_t *data = NULL;
     CHECK_EQ_INT(forte_tx_pending(&tx, &data), staged * FORTE_SAMPLE_FRAME_SIZE);
     forte_tx_consumed(&tx, 10); /* the USB driver took only 10 bytes */
-    CHECK_EQ_INT(forte_tx_pending(&tx, &data), staged * FORTE_SAMPLE_FRAME_SIZE - 10);
-    CHECK(forte_tx_stage(&tx, frame, 10) == false || forte_tx_space(&tx) < FORTE_TX_CAPACITY);
-    forte_tx_consumed(&tx, 100000); /* clamps */
-    CHECK_EQ_INT(forte_tx_pending(&tx, &data), forte_tx_space(&tx) == FORTE_TX_CAPACITY ? 0 : 10);
+    const size_t full = staged * FORTE_SAMPLE_FRAME_SIZE;
+    CHECK_EQ_INT(forte_tx_pending(&tx, &data), full - 10);
+    CHECK_EQ_INT(data[0], 0x33);
+    CHECK_EQ_INT(forte_tx_space(&tx), FORTE_TX_CAPACITY - (full - 10)); /* compacted */
+    CHECK(!forte_tx_stage(&tx, frame, sizeof(frame)));                 /* whole frames only */
+    CHECK(forte_tx_stage(&tx, frame, 10));
+    CHECK_EQ_INT(forte_tx_pending(&tx, &data), full);
+    forte_tx_consumed(&tx, 100000); /* clamps to what is pending */
+    CHECK_EQ_INT(forte_tx_pending(&tx, &data), 0);
+    CHECK_EQ_INT(forte_tx_space(&tx), FORTE_TX_CAPACITY);
 }
 
 /* Device -> bytes with random USB write sizes -> decoder: every staged sample arrives. */
