@@ -9,10 +9,12 @@ Usage (from the repository root, environment sourced)::
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import dataclasses
 import json
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -21,6 +23,7 @@ import numpy as np
 
 from forte_finger import cad
 from forte_finger.design import FingerDesign, FingerParameters, make_design
+from forte_finger.drawing import draw
 from forte_finger.report import measure_finger
 
 DEFAULT_OUT = Path(__file__).resolve().parents[1] / 'out'
@@ -72,8 +75,23 @@ def _jsonable(value):
     return value
 
 
+@contextlib.contextmanager
+def _replaced_atomically(path: Path):
+    """Yield a temporary path next to ``path``; on success move it onto ``path``.
+
+    Readers (another test run, a slicer) never see a half-written file.
+    """
+    temporary = path.with_name(f'.{path.name}.{os.getpid()}.tmp')
+    try:
+        yield temporary
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
 def generate(design: FingerDesign, out: Path, stem: str = 'forte_finger') -> dict:
-    """Build the finger, write ``<stem>.step``, ``.stl``, ``_ports.csv``, ``_report.json``.
+    """Build the finger; write ``<stem>.step``, ``.stl``, ``_ports.csv``, ``_openings.png``
+    (labelled port and vent faces) and ``_report.json`` (each file replaced atomically).
 
     Returns
     -------
@@ -82,23 +100,29 @@ def generate(design: FingerDesign, out: Path, stem: str = 'forte_finger') -> dic
         channel geometry, port table, file paths, timings [s].
     """
     out.mkdir(parents=True, exist_ok=True)
+    paths = {kind: out / f'{stem}{suffix}' for kind, suffix in (
+        ('step', '.step'), ('stl', '.stl'), ('ports', '_ports.csv'),
+        ('drawing', '_openings.png'), ('report', '_report.json'))}
     started = time.perf_counter()
     shape = cad.build_finger(design)
     body = cad.build_finger(design, with_channels=False)
     built = time.perf_counter()
-    step_path, stl_path = out / f'{stem}.step', out / f'{stem}.stl'
-    cad.export_step(shape, step_path)
-    triangles = cad.export_stl(shape, stl_path, PRINT_DEFLECTION)
+    with _replaced_atomically(paths['step']) as temporary:
+        cad.export_step(shape, temporary)
+    with _replaced_atomically(paths['stl']) as temporary:
+        triangles = cad.export_stl(shape, temporary, PRINT_DEFLECTION)
     body_triangles = cad.triangulate(body, PRINT_DEFLECTION)
     exported = time.perf_counter()
     measured = measure_finger(design, triangles, body_triangles)
     finished = time.perf_counter()
-    ports_path = out / f'{stem}_ports.csv'
     rows = design.port_table()
-    with open(ports_path, 'w', newline='') as stream:
-        writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    with _replaced_atomically(paths['ports']) as temporary:
+        with open(temporary, 'w', newline='') as stream:
+            writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+    with _replaced_atomically(paths['drawing']) as temporary:
+        draw(design, temporary)
     report = {
         'parameters': design.parameters.as_dict(),
         'brep': {'valid': cad.is_valid(shape), 'solids': cad.solid_count(shape),
@@ -107,13 +131,14 @@ def generate(design: FingerDesign, out: Path, stem: str = 'forte_finger') -> dic
         'cavity_cells': len(design.cells),
         'measured': measured,
         'ports': rows,
-        'files': {'step': str(step_path), 'stl': str(stl_path), 'ports': str(ports_path)},
+        'files': {kind: str(path) for kind, path in paths.items()},
         'seconds': {'build': built - started, 'export': exported - built,
                     'measure': finished - exported},
     }
     report = _jsonable(report)
-    with open(out / f'{stem}_report.json', 'w') as stream:
-        json.dump(report, stream, indent=1)
+    with _replaced_atomically(paths['report']) as temporary:
+        with open(temporary, 'w') as stream:
+            json.dump(report, stream, indent=1)
     return report
 
 

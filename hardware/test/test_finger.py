@@ -7,6 +7,7 @@ position check below uses 0.02 mm (DIMENSION_TOLERANCE).
 import csv
 import dataclasses
 import itertools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,9 +29,10 @@ DIMENSION_TOLERANCE = 0.02  # [mm]
 
 
 @pytest.fixture(scope='module')
-def default_finger(tmp_path_factory):
-    """Generate the default finger once: (design, report, triangles read back from STL)."""
-    out = tmp_path_factory.mktemp('finger')
+def default_finger():
+    """Generate the default finger into hardware/out/ (the lab's copy; files are replaced
+    atomically): (design, report, triangles read back from the STL, folder)."""
+    out = Path(__file__).resolve().parents[1] / 'out'
     design = make_design()
     report = generate(design, out)
     triangles = read_stl(out / 'forte_finger.stl')
@@ -123,7 +125,7 @@ def test_channels_clear_of_each_other_and_of_the_surface(default_finger):
         assert clearance == pytest.approx(p.channel_wall, abs=DIMENSION_TOLERANCE), name
 
 
-def test_ports_and_vents_exit_where_stated(default_finger, tmp_path):
+def test_ports_and_vents_exit_where_stated(default_finger):
     design, report, _, out = default_finger
     p = design.parameters
     measured = report['measured']
@@ -136,6 +138,7 @@ def test_ports_and_vents_exit_where_stated(default_finger, tmp_path):
             offset, diameter = measured[table][channel.name]
             assert offset < DIMENSION_TOLERANCE, (table, channel.name)
             assert diameter == pytest.approx(p.channel_diameter, abs=DIMENSION_TOLERANCE)
+    assert (out / 'forte_finger_openings.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
     with open(out / 'forte_finger_ports.csv') as stream:
         rows = list(csv.DictReader(stream))
     assert [row['channel'] for row in rows] == [c.name for c in design.channels]
