@@ -403,11 +403,23 @@ class GripperDriverNode(LifecycleNode):
         previous = self._hardware_errors
         try:
             self._hardware_errors = self.gripper.read_hardware_errors()
-            self._torque = self.gripper.torque_enabled()
         except DynamixelError as error:
+            # One sync read for both failed: ask each servo, to tell which one is silent.
             self._last_error = str(error)
             self._hardware_errors = {}
-            self._torque = {}
+            for finger in self.gripper.config.fingers:
+                try:
+                    self._hardware_errors[finger.servo_id] = self.gripper.read_register(
+                        finger.servo_id, ct.HARDWARE_ERROR_STATUS)
+                except DynamixelError as servo_error:
+                    self._last_error = str(servo_error)
+        self._torque = {}
+        for servo_id in self._hardware_errors:
+            try:
+                self._torque[servo_id] = bool(
+                    self.gripper.read_register(servo_id, ct.TORQUE_ENABLE))
+            except DynamixelError as error:
+                self._last_error = str(error)
         for servo_id, bits in self._hardware_errors.items():
             if bits and bits != previous.get(servo_id):
                 self.get_logger().error(

@@ -104,6 +104,8 @@ class SimulatedXM430:
         """Position [pulse] the horn cannot pass (None: free)."""
         self.obstacle_blocks_increasing = True
         """True: the obstacle stops motion toward larger positions; False: smaller."""
+        self.responding = True
+        """False: the servo ignores the bus (unplugged cable, no power to its logic)."""
         self._saturated_time = 0.0
         self._latched_errors = 0
         self._start_time = time.monotonic()
@@ -430,9 +432,9 @@ class SimulatedServoBus:
 
     def set_servo(self, device_id: int, **attributes) -> None:
         """Set physical attributes of a servo (position, temperature, input_voltage_units,
-        obstacle, obstacle_blocks_increasing)."""
+        obstacle, obstacle_blocks_increasing, responding)."""
         allowed = {'position', 'temperature', 'input_voltage_units', 'obstacle',
-                   'obstacle_blocks_increasing'}
+                   'obstacle_blocks_increasing', 'responding'}
         unknown = set(attributes) - allowed
         if unknown:
             raise AttributeError(f'cannot set {sorted(unknown)}; allowed: {sorted(allowed)}')
@@ -489,6 +491,8 @@ class SimulatedServoBus:
 
     def _handle(self, packet: proto.Packet) -> None:
         with self.lock:
+            listening = {i: s for i, s in self.servos.items() if s.responding}
+        with self.lock:
             self.packets.append(ReceivedPacket(time.monotonic(), packet.device_id,
                                                packet.instruction, packet.parameters,
                                                len(packet.raw)))
@@ -497,7 +501,7 @@ class SimulatedServoBus:
             host = self._host_baud()
             if host is not None and any(
                     ct.BAUD_RATE_BY_REGISTER[s.get(ct.BAUD_RATE)] != host
-                    for s in self.servos.values()):
+                    for s in listening.values()):
                 self.ignored_wrong_baud += 1
                 return
         instruction = packet.instruction
@@ -505,15 +509,15 @@ class SimulatedServoBus:
         size = len(packet.raw)
         broadcast = packet.device_id == proto.BROADCAST_ID
         if instruction == proto.INSTRUCTION_SYNC_WRITE and broadcast:
-            self._sync_write(params)
+            self._sync_write(params, listening)
         elif instruction == proto.INSTRUCTION_SYNC_READ and broadcast:
-            self._sync_read(params, size)
+            self._sync_read(params, size, listening)
         elif instruction == proto.INSTRUCTION_PING:
-            targets = (sorted(self.servos) if broadcast
-                       else [packet.device_id] if packet.device_id in self.servos else [])
+            targets = (sorted(listening) if broadcast
+                       else [packet.device_id] if packet.device_id in listening else [])
             deadline = 0.0
             for device_id in targets:
-                servo = self.servos[device_id]
+                servo = listening[device_id]
                 with self.lock:
                     body = (ct.encode_value(ct.MODEL_NUMBER, servo.get(ct.MODEL_NUMBER))
                             + bytes([servo.get(ct.FIRMWARE_VERSION)]))
@@ -522,10 +526,10 @@ class SimulatedServoBus:
         elif broadcast:
             if instruction == proto.INSTRUCTION_WRITE and len(params) >= 3:
                 with self.lock:
-                    for servo in self.servos.values():
+                    for servo in listening.values():
                         servo.write(params[0] | params[1] << 8, params[2:])
-        elif packet.device_id in self.servos:
-            self._unicast(self.servos[packet.device_id], instruction, params, size)
+        elif packet.device_id in listening:
+            self._unicast(listening[packet.device_id], instruction, params, size)
 
     def _unicast(self, servo: SimulatedXM430, instruction: int, params: bytes,
                  size: int) -> None:
@@ -554,7 +558,7 @@ class SimulatedServoBus:
             with self.lock:
                 servo.reboot()
 
-    def _sync_write(self, params: bytes) -> None:
+    def _sync_write(self, params: bytes, listening: dict[int, SimulatedXM430]) -> None:
         if len(params) < 4:
             return
         address = params[0] | params[1] << 8
@@ -562,18 +566,19 @@ class SimulatedServoBus:
         chunk = 1 + length
         with self.lock:
             for offset in range(4, len(params) - chunk + 1, chunk):
-                servo = self.servos.get(params[offset])
+                servo = listening.get(params[offset])
                 if servo is not None:
                     servo.write(address, params[offset + 1: offset + chunk])
 
-    def _sync_read(self, params: bytes, size: int) -> None:
+    def _sync_read(self, params: bytes, size: int,
+                   listening: dict[int, SimulatedXM430]) -> None:
         if len(params) < 5:
             return
         address = params[0] | params[1] << 8
         length = params[2] | params[3] << 8
         deadline = 0.0
         for device_id in params[4:]:
-            servo = self.servos.get(device_id)
+            servo = listening.get(device_id)
             if servo is None:
                 continue  # an absent servo does not answer; later ones still do
             with self.lock:

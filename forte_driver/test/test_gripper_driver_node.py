@@ -207,6 +207,36 @@ def test_hardware_error_status_and_temperature_in_diagnostics(bus, harness):
     assert warm is not None and 'near limit 70' in warm.message
 
 
+def test_silent_servos_give_no_joint_states_and_an_error_until_they_answer_again(bus, harness):
+    configure_and_activate(harness)
+    assert harness.joint_state_where(lambda m: True)
+    bus.set_servo(1, responding=False)
+    bus.set_servo(2, responding=False)
+    assert wait_for(lambda: harness.driver.counters['consecutive_read_failures'] >= 3)
+    count = len(harness.joint_states)
+    time.sleep(0.5)
+    assert len(harness.joint_states) <= count + 2  # in flight at most; nothing invented
+
+    def driver_status(level):
+        def find():
+            for array in reversed(harness.diagnostics[-5:]):
+                for status in array.status:
+                    if status.name.endswith(': driver') and status.level == level:
+                        return status
+            return None
+        return wait_for(find)
+
+    failing = driver_status(DiagnosticStatus.ERROR)
+    assert failing is not None and 'state reads failing' in failing.message
+    bus.set_servo(2, responding=True)  # only the left servo comes back
+    silent = harness.servo_status(1, lambda s: 'no answer' in s.message)
+    assert silent is not None and silent.level == DiagnosticStatus.ERROR
+    assert harness.servo_status(2, lambda s: values_of(s)['hardware_error_status'] == '0x00')
+    bus.set_servo(1, responding=True)
+    assert wait_for(lambda: len(harness.joint_states) > count + 20)
+    assert driver_status(DiagnosticStatus.OK) is not None
+
+
 def test_deactivate_and_shutdown_hold_the_grip(bus, harness):
     configure_and_activate(harness)
     assert harness.transition(Transition.TRANSITION_DEACTIVATE)
