@@ -223,3 +223,25 @@ def test_cli_overrides_and_errors(tmp_path, capsys):
     assert main(['--out', str(tmp_path), '--set', 'inner_wall=2']) == 2
     assert 'inner_wall' in capsys.readouterr().err
     assert not (tmp_path / 'forte_finger.stl').exists()
+
+
+@pytest.mark.parametrize('overrides', [
+    {'rib_count': 0},
+    {'rib_count': 10, 'rib_angle': -20.0},
+    {'length': 120.0, 'base_depth': 35.0, 'width': 26.0, 'location_fractions': (0.8, 0.5, 0.2)},
+])
+def test_other_shapes_stay_valid_watertight_and_open_only_at_ports_and_vents(overrides):
+    design = make_design(FingerParameters(**overrides))
+    shape = cad.build_finger(design)
+    assert cad.is_valid(shape) and cad.solid_count(shape) == 1
+    triangles = cad.triangulate(shape, 0.01)
+    mesh = trimesh.Trimesh(vertices=triangles.reshape(-1, 3),
+                           faces=np.arange(3 * len(triangles)).reshape(-1, 3))
+    mesh.merge_vertices()
+    assert mesh.is_watertight
+    assert mesh.euler_number == 2 - 2 * expected_genus(design)
+    measured = measure_finger(design, triangles)
+    assert (measured['port_openings'], measured['vent_openings']) == (6, 6)
+    for name, section in measured['sensing'].items():
+        assert section.diameter == pytest.approx(2.0, abs=DIMENSION_TOLERANCE), name
+        assert section.wall_adjacent == pytest.approx(1.0, abs=DIMENSION_TOLERANCE), name
