@@ -237,6 +237,25 @@ def test_silent_servos_give_no_joint_states_and_an_error_until_they_answer_again
     assert driver_status(DiagnosticStatus.OK) is not None
 
 
+def test_stream_of_commands_each_sent_once_while_joint_states_flow(bus, harness):
+    configure_and_activate(harness)
+    before = bus.count(proto.INSTRUCTION_SYNC_WRITE)
+    first_sample = len(harness.joint_states)
+    for index in range(100):  # 50 Hz, like a controller
+        harness.send(0.2 + 0.002 * index, max_current=0.4, profile_velocity=4.0)
+        time.sleep(0.02)
+    assert wait_for(lambda: harness.driver.counters['commands_sent'] == 100)
+    assert bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 100
+    assert len(harness.joint_states) - first_sample >= 100  # 100 Hz for 2 s, minus losses
+    final = harness.joint_state_where(
+        lambda m: list(m.position) == pytest.approx([0.398] * 2, abs=PULSE)
+        and m.velocity[0] == 0.0)
+    assert final is not None
+    stamps = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+              for m in harness.joint_states[first_sample:]]
+    assert all(later > earlier for earlier, later in zip(stamps, stamps[1:], strict=False))
+
+
 def test_deactivate_and_shutdown_hold_the_grip(bus, harness):
     configure_and_activate(harness)
     assert harness.transition(Transition.TRANSITION_DEACTIVATE)

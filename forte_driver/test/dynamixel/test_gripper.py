@@ -254,3 +254,18 @@ def test_data_needing_byte_stuffing_is_refused_before_it_reaches_the_bus(bus, gr
     with pytest.raises(DynamixelError, match='byte stuffing'):
         gripper.write_register(1, ct.HOMING_OFFSET, -131073)  # bytes FF FF FD FF
     assert len(bus.packet_log()) == before
+
+
+def test_long_run_every_command_is_exactly_one_packet(bus, gripper):
+    gripper.configure()
+    gripper.hold_present_position()
+    gripper.set_torque(True)
+    before = bus.count(proto.INSTRUCTION_SYNC_WRITE)
+    thetas = [0.1 + 0.8 * (index % 97) / 96.0 for index in range(1000)]
+    for index, theta in enumerate(thetas):
+        assert gripper.command(theta).accepted
+        if index % 100 == 0:
+            _read_state(gripper)  # interleaved reads, as in the node
+    assert _wait_for(lambda: bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 1000)
+    assert bus.register_value(1, 'Goal Position') == gripper.config.right.theta_to_raw(thetas[-1])
+    assert bus.register_value(2, 'Goal Position') == gripper.config.left.theta_to_raw(thetas[-1])
