@@ -233,7 +233,8 @@ class GripperDriverNode(LifecycleNode):
         if report.torque_was_disabled:
             self.get_logger().warn(
                 f'torque of servo(s) {report.torque_was_disabled} had to be switched off to '
-                'write EEPROM limits (they were not holding the configured limits)')
+                'write EEPROM limits that differed from the configuration (any grip was '
+                'released)')
         limits = gripper.limits
         self.get_logger().info(
             f'limits in force (from the servos\' registers): theta {limits.theta_min:.4f}..'
