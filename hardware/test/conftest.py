@@ -4,4 +4,4 @@ from pathlib import Path
 
 HARDWARE = Path(__file__).resolve().parents[1]
 if str(HARDWARE) not in sys.path:
-    sys.path.insert(0, str(HARDWARE))
+    sys.path.append(str(HARDWARE))
