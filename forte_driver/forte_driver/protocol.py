@@ -28,6 +28,7 @@ import math
 import struct
 from dataclasses import dataclass
 from enum import IntEnum
+from typing import NamedTuple
 
 import numpy as np
 
@@ -94,9 +95,8 @@ SAMPLE_FRAME_SIZE = HEADER_SIZE + PAYLOAD_SIZES[FrameType.SAMPLE] + CRC_SIZE
 _PAYLOAD_SIZE_BY_BYTE = {int(k): v for k, v in PAYLOAD_SIZES.items()}
 
 
-@dataclass(frozen=True, slots=True)
-class Sample:
-    """One 6-channel scan as sent by the device.
+class Sample(NamedTuple):
+    """One 6-channel scan as sent by the device (a named tuple: cheap to create).
 
     Attributes
     ----------
@@ -211,14 +211,21 @@ def encode_info(info: Info) -> bytes:
         info.counts_per_full_scale, info.rate_hz, info.ring_capacity, info.device_id))
 
 
+_TYPE_SAMPLE = int(FrameType.SAMPLE)
+_TYPE_ACK = int(FrameType.ACK)
+_TYPE_COMMAND = int(FrameType.COMMAND)
+_unpack_sample = _SAMPLE_STRUCT.unpack_from
+_new_tuple = tuple.__new__
+
+
 def _parse(frame_type: int, buffer: bytearray, offset: int) -> Frame:
-    if frame_type == FrameType.SAMPLE:
-        f = _SAMPLE_STRUCT.unpack_from(buffer, offset)
-        return Sample(f[0], f[1], f[2:8], f[8], f[9], f[10])
-    if frame_type == FrameType.ACK:
+    if frame_type == _TYPE_SAMPLE:
+        f = _unpack_sample(buffer, offset)
+        return _new_tuple(Sample, (f[0], f[1], f[2:8], f[8], f[9], f[10]))
+    if frame_type == _TYPE_ACK:
         f = _ACK_STRUCT.unpack_from(buffer, offset)
         return Ack(f[0], f[1], f[2], f[4])
-    if frame_type == FrameType.COMMAND:
+    if frame_type == _TYPE_COMMAND:
         return CommandFrame(*_COMMAND_STRUCT.unpack_from(buffer, offset))
     f = _INFO_STRUCT.unpack_from(buffer, offset)
     return Info(f[0], (f[1], f[2], f[3]), f[4], f[5], f[6], f[7], f[8], f[9])
@@ -270,8 +277,12 @@ class FrameDecoder:
         buffer += data
         size = len(buffer)
         out: list[Frame | CorruptFrame] = []
+        append = out.append
         position = 0
         find = buffer.find
+        crc_hqx = binascii.crc_hqx
+        payload_sizes = _PAYLOAD_SIZE_BY_BYTE
+        frames = corrupt = discarded = 0
         while True:
             start = find(SIGNATURE, position)
             if start < 0:
@@ -280,35 +291,43 @@ class FrameDecoder:
                     keep = 2
                 elif size - position >= 1 and buffer[size - 1] == SYNC0:
                     keep = 1
-                self.discarded_bytes += size - position - keep
+                discarded += size - position - keep
                 position = size - keep
                 break
-            self.discarded_bytes += start - position
+            discarded += start - position
             if size - start < HEADER_SIZE:
                 position = start
                 break
-            payload_size = _PAYLOAD_SIZE_BY_BYTE.get(buffer[start + 3])
+            frame_type = buffer[start + 3]
+            payload_size = payload_sizes.get(frame_type)
             if payload_size is None or buffer[start + 4] != payload_size:
-                self.corrupt_frames += 1
-                self.discarded_bytes += 1
-                out.append(CORRUPT_HEADER)
+                corrupt += 1
+                discarded += 1
+                append(CORRUPT_HEADER)
                 position = start + 1
                 continue
             end = start + HEADER_SIZE + payload_size + CRC_SIZE
             if end > size:
                 position = start
                 break
-            received = buffer[end - 2] | (buffer[end - 1] << 8)
-            if binascii.crc_hqx(buffer[start + 2:end - 2], 0xFFFF) != received:
-                self.corrupt_frames += 1
-                self.discarded_bytes += 1
-                out.append(CORRUPT_CRC)
+            received_crc = buffer[end - 2] | (buffer[end - 1] << 8)
+            if crc_hqx(buffer[start + 2:end - 2], 0xFFFF) != received_crc:
+                corrupt += 1
+                discarded += 1
+                append(CORRUPT_CRC)
                 position = start + 1
                 continue
-            out.append(_parse(buffer[start + 3], buffer, start + HEADER_SIZE))
-            self.frames += 1
+            if frame_type == _TYPE_SAMPLE:
+                f = _unpack_sample(buffer, start + HEADER_SIZE)
+                append(_new_tuple(Sample, (f[0], f[1], f[2:8], f[8], f[9], f[10])))
+            else:
+                append(_parse(frame_type, buffer, start + HEADER_SIZE))
+            frames += 1
             position = end
         del buffer[:position]
+        self.frames += frames
+        self.corrupt_frames += corrupt
+        self.discarded_bytes += discarded
         return out
 
 

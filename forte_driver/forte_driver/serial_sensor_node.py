@@ -208,6 +208,10 @@ class SerialSensorNode(LifecycleNode):
         self._binary = self.get_parameter('protocol').value == 'binary'
         self._rate_hz = self.get_parameter('sample_rate_hz').value
         self._period_us = 1_000_000 // self._rate_hz
+        bytes_per_sample = protocol.SAMPLE_FRAME_SIZE if self._binary else 64
+        self._read_size = bytes_per_sample * batch_size
+        # one batch period plus margin, at most 50 ms (bounds the stop latency)
+        self._read_timeout = min(0.05, 1.5 * batch_size / self._rate_hz)
         self._decoder = FrameDecoder()
         self._ascii = AsciiLineDecoder()
         self._assembler = StreamAssembler(batch_size)
@@ -298,7 +302,8 @@ class SerialSensorNode(LifecycleNode):
         port_name = self.get_parameter('port').value
         try:
             port = serial.Serial(port_name, baudrate=self.get_parameter('baud_rate').value,
-                                 rtscts=self.get_parameter('rtscts').value, timeout=0.05,
+                                 rtscts=self.get_parameter('rtscts').value,
+                                 timeout=self._read_timeout,
                                  write_timeout=0.5, exclusive=True)
             port.reset_input_buffer()
         except (serial.SerialException, OSError, ValueError) as error:
@@ -355,7 +360,9 @@ class SerialSensorNode(LifecycleNode):
                 time.sleep(0.02)
                 continue
             try:
-                data = port.read(max(1, port.in_waiting))
+                # wait for one batch worth of bytes (a batch cannot be published earlier,
+                # so this adds no latency) or the port timeout; take all that is there
+                data = port.read(max(self._read_size, port.in_waiting))
             except (serial.SerialException, OSError, TypeError, AttributeError) as error:
                 if not self._reader_stop.is_set() and self._port is port:
                     self._lose_device(error)
