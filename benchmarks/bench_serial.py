@@ -112,6 +112,10 @@ def run_driver(protocol_name: str, seconds: float) -> dict:
         spinner = threading.Thread(target=executor.spin, daemon=True)
         spinner.start()
         node.trigger_configure()
+        time.sleep(0.5)
+        idle0, idle_wall0 = time.process_time(), time.perf_counter()
+        time.sleep(2.0)  # configured, device stopped: executor timers, DDS, idle reads
+        idle = (time.process_time() - idle0) / (time.perf_counter() - idle_wall0)
         node.trigger_activate()
         time.sleep(1.0)  # warm-up: clock fit, DDS discovery
         before = node.counters
@@ -130,6 +134,7 @@ def run_driver(protocol_name: str, seconds: float) -> dict:
     wall = wall1 - wall0
     return {
         'cpu_share': (cpu1 - cpu0) / wall,
+        'idle_cpu_share': idle,
         'rate_hz': (after['received_samples'] - before['received_samples']) / wall,
         'dropped': after['dropped_frames'],
         'corrupt': after['corrupt_frames'],
@@ -163,7 +168,8 @@ def main() -> None:
     results = {name: run_driver(name, seconds) for name in ('binary', 'ascii')}
     for name, result in results.items():
         label = 'binary protocol v1' if name == 'binary' else 'baseline: legacy ASCII'
-        print(f'  {label:24s} CPU {100 * result["cpu_share"]:5.1f} % of one core, '
+        print(f'  {label:24s} CPU {100 * result["cpu_share"]:5.1f} % of one core '
+              f'(idle, configured: {100 * result["idle_cpu_share"]:.1f} %), '
               f'rate {result["rate_hz"]:7.1f} Hz, dropped {result["dropped"]}, '
               f'corrupt {result["corrupt"]}')
     ratio = results['ascii']['cpu_share'] / max(results['binary']['cpu_share'], 1e-9)
