@@ -43,8 +43,10 @@ class GripperModel:
     finger_k3: float = 1.0e-4            # [N/mm^3]
     relaxation_amplitudes: tuple[float, float] = (0.10, 0.08)   # [-]
     relaxation_times: tuple[float, float] = (1.5, 15.0)         # [s]
-    tangential_stiffness: float = 800.0  # contact shear stiffness per finger [N/m]
-    finger_modal_mass: float = 0.012     # effective mass of a finger's bending mode [kg]
+    tangential_stiffness: float = 100.0  # contact shear stiffness per finger at 0 N [N/m]
+    tangential_stiffening: float = 150.0  # its growth with normal force [N/m per N]
+    bending_frequency: float = 30.0      # finger bending mode, no object [Hz]
+    bending_mass: float = 0.3            # object mass that lowers it by sqrt(2) [kg]
     vibration_damping: float = 0.10      # damping ratio of that mode [-]
     # --- sensor: channel gain = base * (floor + (1 - floor) * kernel(u))
     channel_base_gain: tuple[float, float, float] = (0.026, 0.016, 0.010)   # [1/mm]
@@ -90,8 +92,10 @@ PROVENANCE = {
                             "that the paper's apple needs 0.5 N at theta_grasp 0.527 rad and "
                             'the rig spans 0-8 N',
     'relaxation': 'estimate for a polyurethane elastomer (EPU 40): 18 % over ~15 s',
-    'tangential_stiffness': 'estimate',
-    'finger_modal_mass, vibration_damping': 'estimate (printed elastomer finger)',
+    'tangential_stiffness, tangential_stiffening': 'estimate; discrete mm-size slips '
+        'about 1 s apart at 1 mm/s as in the paper Fig. 4a',
+    'bending_frequency, bending_mass, vibration_damping': 'estimate (printed elastomer '
+                                                          'finger, in the 10-50 Hz band)',
     'channel gains': 'estimate: 8 N -> about 0.6 of full scale on the distal pair, '
                      'distal > middle > root as in the paper Fig. 3b',
     'shear_gain, vibration_gain': 'estimate, tuned so the paper slip detector sees stick-slip',

@@ -74,6 +74,13 @@ _STICK_SLIP_MIN = 0.03      # mu_static - mu_kinetic below this slides smoothly 
 _ROTATION_TIME = 0.15       # time constant of rotational slip [s]
 _SETTLED_OFFSET = 0.003     # rotation within this of its equilibrium has stopped [rad]
 _GRIP_MARGIN = 0.003        # slide distance margin before the contact runs off [m]
+_TEXTURE_SPACING = 0.0005   # correlation length of the surface friction variation [m]
+_TEXTURE_POINTS = 400       # covers 0.2 m of sliding
+_TEXTURE_VARIATION = 0.4    # relative spread of the static friction excess [-]
+_AGING_TIME = 0.15          # static friction recovery time of a stuck contact [s]
+_MIN_RELEASE = 0.004        # static minus kinetic capacity below which slip is smooth [N]
+_STICK_SLIP_HOLD = 0.1      # a release labels stick-slip for this long [s]
+_RELEASE_COUPLING = 0.5     # share of a release step felt by the other finger [-]
 
 
 @dataclass
@@ -228,6 +235,8 @@ class Scene:
             draws = _Trial(0.0, 0.4, 0.15, 1.0, 0.0, 0.0, 1.0)
             width = 0.0
         draws.offsets = rng.uniform(-model.offset_range, model.offset_range, 6)
+        self._texture = [float(value) for value in np.clip(
+            1.0 + _TEXTURE_VARIATION * rng.standard_normal(_TEXTURE_POINTS), 0.2, 2.0)]
         self._draws = draws
         self._width0_mm = width * 1000.0
         self._width_mm = self._width0_mm
@@ -244,10 +253,10 @@ class Scene:
         self._vibration_gain = np.array(model.vibration_gain * 2)      # (6,)
         self._temperature_gain = model.temperature_gain * np.array((1.0, 0.6, 0.3) * 2)
         self._noise = SensorNoise(model, self.seed)
-        modal_mass = 2.0 * model.finger_modal_mass + (0.5 * obj.mass if obj else 0.0)
-        frequency = math.sqrt(2.0 * model.tangential_stiffness / modal_mass) / (2.0 * math.pi)
+        mass = obj.mass if obj is not None else 0.0
         #: Bending-mode frequency excited by stick-slip releases [Hz].
-        self.vibration_frequency = float(min(max(frequency, 8.0), 60.0))
+        self.vibration_frequency = model.bending_frequency / math.sqrt(
+            1.0 + mass / model.bending_mass)
         self._resonator_b, self._resonator_a = resonator_coefficients(
             self.vibration_frequency, model.vibration_damping)
         self._resonator_state = np.zeros((2, 2))
@@ -271,6 +280,7 @@ class Scene:
         self._shear = [0.0, 0.0]                      # tangential force on the object [N]
         self._jumps = [0.0, 0.0]                      # cumulative release steps [N]
         self._sliding = [False, False]
+        self._stuck_since = [0, 0]                    # sample the contact last stuck
         self._rotation = 0.0
         self._rotating = False
         self._temperature = [0.0, 0.0]
@@ -278,6 +288,7 @@ class Scene:
         self._falling = False
         self._max_height = 0.0
         self._contact_lost = False
+        self._had_contact = False
         self._object_state = OBJECT_RESTING if obj is not None else OBJECT_NONE
         self._slip_type = SLIP_NONE
         self._last_slip_sample = -10 ** 9
@@ -563,117 +574,160 @@ class Scene:
         change = min(max(change, -limit), limit)
         self._arm_velocity += change
         acceleration = change / TICK
+        lift_before = self._lift
         self._lift += self._arm_velocity * TICK
         if self._lift < 0.0:
             self._lift = 0.0
             self._arm_velocity = max(self._arm_velocity, 0.0)
         if self.dynamics:
-            self._friction(tick_start, acceleration)
+            self._friction(tick_start, acceleration, self._lift - lift_before)
 
-    def _friction(self, tick_start: int, acceleration: float) -> None:
-        """Tangential contact mechanics of one tick: stick, stick-slip, sliding, falling."""
+    def _friction(self, tick_start: int, acceleration: float, lift_change: float) -> None:
+        """Tangential contact mechanics of one tick: stick, stick-slip, sliding, falling.
+
+        Each finger's shear on the object changes by its tangential stiffness times the
+        finger's motion relative to the object; it is limited by static friction while
+        stuck (aging contact) and equals kinetic friction while sliding.
+        """
         model = self.model
         obj = self.object
-        stiffness = model.tangential_stiffness
         forces = self._force
+        now = tick_start + TICK_SAMPLES
         rotation_factor = 1.0 - 0.5 * math.sin(min(abs(self._rotation), math.pi / 2.0))
-        static = [self._mu_static * force * rotation_factor for force in forces]
+        stiffness = [model.tangential_stiffness + model.tangential_stiffening * force
+                     for force in forces]
         kinetic = [self._mu_kinetic * force * rotation_factor for force in forces]
+        static = []
+        for finger in (0, 1):
+            # static friction grows back with the age of the stuck contact (aging)
+            age = (now - self._stuck_since[finger]) * SAMPLE_PERIOD
+            excess = ((self._mu_static - self._mu_kinetic)
+                      * self._texture_at(self._slide[finger])
+                      * (1.0 - math.exp(-age / _AGING_TIME)))
+            static.append((self._mu_kinetic + excess) * forces[finger] * rotation_factor)
         ejection = math.sin(obj.taper_angle) * (forces[0] + forces[1])
-        lift = self._lift
+        weight = obj.mass * STANDARD_GRAVITY
         previous = list(self._shear)
         released = False
         in_contact = forces[0] > 0.0 or forces[1] > 0.0
+        for finger in (0, 1):
+            if forces[finger] <= 0.0:
+                # no contact: the finger moves freely along the object
+                self._shear[finger] = 0.0
+                self._sliding[finger] = False
+                self._stuck_since[finger] = now
         if not in_contact and (self._lifted or self._falling):
-            # nothing holds the object: free fall to the table
             self._falling = True
             self._lifted = False
         if self._falling:
-            weight = obj.mass * STANDARD_GRAVITY
             support = kinetic[0] + kinetic[1] - ejection
-            if support >= weight + 1e-9 and in_contact:
+            if in_contact and support >= weight:
                 self._falling = False
                 self._lifted = True
+                self._sliding = [True, True]
             else:
+                height_before = self._height
                 self._object_velocity += (support / obj.mass - STANDARD_GRAVITY) * TICK
                 self._height += self._object_velocity * TICK
+                relative = lift_change - (self._height - height_before)
                 for finger in (0, 1):
-                    self._sliding[finger] = True
-                    self._slide[finger] = (lift - self._height
-                                           - kinetic[finger] / stiffness)
-                    self._shear[finger] = kinetic[finger]
+                    self._slide[finger] += relative
+                    if forces[finger] > 0.0:
+                        self._sliding[finger] = True
+                        self._shear[finger] = kinetic[finger]
                 if self._height <= 0.0:
                     self._height = 0.0
                     self._object_velocity = 0.0
                     self._falling = False
                     self._lifted = False
-                    if self._max_height > _HELD_HEIGHT and self._object_state == OBJECT_HELD:
+                    if self._object_state == OBJECT_HELD:
                         self._object_state = OBJECT_DROPPED
         if not self._falling and not self._lifted:
-            # resting on the table: each finger loads its contact independently
+            # resting on the table: each finger loads its own contact
             for finger in (0, 1):
-                candidate = stiffness * (lift - self._slide[finger])
+                if forces[finger] <= 0.0:
+                    self._slide[finger] += lift_change
+                    continue
+                candidate = previous[finger] + stiffness[finger] * lift_change
                 limit_value = kinetic[finger] if self._sliding[finger] else static[finger]
                 if candidate > limit_value:
-                    if self._sliding[finger] or not self._stick_slip:
+                    if self._sliding[finger] or not self._can_release(static[finger],
+                                                                      kinetic[finger]):
                         self._sliding[finger] = True
                         self._shear[finger] = kinetic[finger]
+                        self._slide[finger] += (candidate - kinetic[finger]) / stiffness[finger]
                     else:
                         released = True
+                        self._shear[finger] = candidate
                         self._release(finger, candidate, static[finger], kinetic[finger],
-                                      previous[finger], tick_start)
-                        continue
-                    self._slide[finger] = lift - self._shear[finger] / stiffness
+                                      previous[finger], tick_start, stiffness[finger])
                 else:
-                    self._sliding[finger] = False
+                    if self._sliding[finger]:
+                        self._sliding[finger] = False
+                        self._stuck_since[finger] = now
                     self._shear[finger] = candidate
-            if self._shear[0] + self._shear[1] >= obj.mass * STANDARD_GRAVITY and in_contact:
+            if in_contact and self._shear[0] + self._shear[1] >= weight:
                 self._lifted = True
+            lift_change = 0.0   # consumed
         if self._lifted and not self._falling:
-            weight = obj.mass * (STANDARD_GRAVITY + acceleration) + ejection
-            # tentatively stick every finger; a finger that needs more than its limit slips
-            for _ in range(6):
-                stuck = [finger for finger in (0, 1) if not self._sliding[finger]]
-                fixed = sum(kinetic[finger] for finger in (0, 1) if self._sliding[finger])
-                if not stuck:
-                    if fixed >= weight:
-                        self._sliding = [False, False]
+            load = obj.mass * (STANDARD_GRAVITY + acceleration) + ejection
+            was_sliding = list(self._sliding)
+            # tentatively stick every finger in contact at its present shear
+            stuck = [forces[finger] > 0.0 for finger in (0, 1)]
+            for finger in (0, 1):
+                if self._sliding[finger]:
+                    self._shear[finger] = min(self._shear[finger], kinetic[finger])
+            moved = lift_change      # finger motion relative to the object so far
+            residual_motion = 0.0
+            for _ in range(8):
+                total_stiffness = sum(stiffness[f] for f in (0, 1) if stuck[f])
+                fixed = sum(kinetic[f] for f in (0, 1) if forces[f] > 0.0 and not stuck[f])
+                if total_stiffness <= 0.0:
+                    if fixed >= load:
+                        stuck = [forces[f] > 0.0 for f in (0, 1)]
                         continue
                     self._falling = True
                     self._object_velocity = self._arm_velocity
                     break
-                gap = ((weight - fixed) / stiffness
-                       + sum(self._slide[finger] for finger in stuck)) / len(stuck)
-                self._height = lift - gap
+                held = sum(self._shear[f] for f in (0, 1) if stuck[f])
+                relative = (load - fixed - held) / total_stiffness
+                residual_motion += relative
+                for finger in (0, 1):
+                    if stuck[finger]:
+                        self._shear[finger] += stiffness[finger] * relative
+                    elif forces[finger] > 0.0:
+                        self._shear[finger] = kinetic[finger]
+                        self._slide[finger] += relative
                 worst, worst_ratio = -1, 1.0
                 for finger in (0, 1):
-                    if self._sliding[finger]:
-                        self._slide[finger] = gap - kinetic[finger] / stiffness
-                        self._shear[finger] = kinetic[finger]
-                    else:
-                        self._shear[finger] = stiffness * (gap - self._slide[finger])
-                        ratio = (self._shear[finger] / static[finger]
-                                 if static[finger] > 0.0 else math.inf)
-                        if ratio > worst_ratio:
-                            worst, worst_ratio = finger, ratio
+                    if not stuck[finger]:
+                        continue
+                    limit_value = kinetic[finger] if was_sliding[finger] else static[finger]
+                    ratio = self._shear[finger] / limit_value if limit_value > 0 else math.inf
+                    if ratio > worst_ratio + 1e-12:
+                        worst, worst_ratio = finger, ratio
                 if worst < 0:
                     break
-                if self._stick_slip and static[worst] > 0.0:
+                if not was_sliding[worst] and self._can_release(static[worst], kinetic[worst]):
                     released = True
                     self._release(worst, self._shear[worst], static[worst], kinetic[worst],
-                                  previous[worst], tick_start)
+                                  previous[worst], tick_start, stiffness[worst])
+                    was_sliding[worst] = False
                 else:
-                    self._sliding[worst] = True
+                    stuck[worst] = False
+                    self._slide[worst] += ((self._shear[worst] - kinetic[worst])
+                                           / stiffness[worst])
+                    self._shear[worst] = kinetic[worst]
+            # the object moves with the arm minus the fingers' motion relative to it
+            self._height += moved - residual_motion
+            for finger in (0, 1):
+                now_sliding = forces[finger] > 0.0 and not stuck[finger]
+                if self._sliding[finger] and not now_sliding:
+                    self._stuck_since[finger] = now
+                self._sliding[finger] = now_sliding and not self._falling
             if self._height <= 0.0 and not self._falling:
                 self._height = 0.0
                 self._lifted = False
-            # a sliding finger re-sticks when holding needs no more than kinetic friction
-            for finger in (0, 1):
-                if self._sliding[finger] and not self._falling:
-                    other = 1 - finger
-                    need = weight - self._shear[other]
-                    if need < kinetic[finger] - 1e-9:
-                        self._sliding[finger] = False
         self._height = max(self._height, 0.0)
         self._max_height = max(self._max_height, self._height)
         # --- rotation about the grasp axis (only once off the table)
@@ -685,8 +739,7 @@ class Scene:
             if not self._rotating and torque * math.cos(self._rotation) > static_torque:
                 self._rotating = True
             if self._rotating:
-                ratio = min(kinetic_torque / torque, 1.0)
-                equilibrium = math.acos(ratio)
+                equilibrium = math.acos(min(kinetic_torque / torque, 1.0))
                 if equilibrium > self._rotation:
                     self._rotation += (equilibrium - self._rotation) * self._rotation_decay
                 if equilibrium - self._rotation < _SETTLED_OFFSET:
@@ -695,7 +748,10 @@ class Scene:
             self._rotating = False
         # --- contact running off the object, object state
         slide = 0.5 * (self._slide[0] + self._slide[1])
-        if not self._contact_lost and slide > self._grip_length:
+        if in_contact:
+            self._had_contact = True
+        if not self._contact_lost and (slide > self._grip_length or (
+                self._had_contact and not in_contact and slide > _GRIP_MARGIN)):
             self._contact_lost = True
         if self._object_state in (OBJECT_RESTING, OBJECT_HELD):
             if self._contact_lost:
@@ -703,10 +759,9 @@ class Scene:
             elif self._lifted and self._height > _HELD_HEIGHT:
                 self._object_state = OBJECT_HELD
         # --- slip classification and onset labels
-        now = tick_start + TICK_SAMPLES
         if self._falling:
             kind = SLIP_GROSS
-        elif released or (now - self._last_release_sample() < 0.1 * SAMPLE_RATE):
+        elif released or (now - self._last_release < _STICK_SLIP_HOLD * SAMPLE_RATE):
             kind = SLIP_STICK_SLIP
         elif self._rotating:
             kind = SLIP_ROTATIONAL
@@ -729,13 +784,27 @@ class Scene:
             self._last_slip_sample = now
         self._slip_type = kind
 
-    def _last_release_sample(self) -> int:
-        return self._last_release
+    def _texture_at(self, slide: float) -> float:
+        """Local static-friction excess factor at a slide position along the object [-].
+
+        Surfaces are not uniform: the excess of static over kinetic friction varies along
+        the object (piecewise linear between random values every 0.5 mm, mean 1), which
+        makes stick-slip irregular as on real objects.
+        """
+        position = max(slide, 0.0) / _TEXTURE_SPACING
+        index = int(position)
+        if index + 1 >= len(self._texture):
+            return 1.0
+        fraction = position - index
+        return self._texture[index] * (1.0 - fraction) + self._texture[index + 1] * fraction
+
+    def _can_release(self, static: float, kinetic: float) -> bool:
+        """True if a contact exceeding ``static`` releases with a stick-slip jump."""
+        return self._stick_slip and static - kinetic > _MIN_RELEASE
 
     def _release(self, finger: int, load: float, static: float, kinetic: float,
-                 previous: float, tick_start: int) -> None:
+                 previous: float, tick_start: int, stiffness: float) -> None:
         """Stick-slip release: the contact slips until the shear drops to 2 kinetic - static."""
-        stiffness = self.model.tangential_stiffness
         after = max(2.0 * kinetic - static, 0.0)
         span = load - previous
         fraction = (static - previous) / span if span > 1e-12 else 0.0
@@ -745,6 +814,7 @@ class Scene:
         self._jumps[finger] += after - load
         self._events.append((tick_start + offset, finger, self._jumps[finger]))
         self._last_release = tick_start + offset
+        self._stuck_since[finger] = tick_start + offset
 
     # ------------------------------------------------------------------ 2 kHz synthesis
     def _synthesise(self, first_sample: int, ticks: int, records: np.ndarray,
@@ -763,6 +833,9 @@ class Scene:
         force = np.column_stack((series(3), series(4)))
         model = self.model
         raw = np.empty((count, 6))
+        if self.dynamics:
+            jumps = [self._jump_series(samples, finger, events, jumps_before[finger])
+                     for finger in (0, 1)]
         for finger in (0, 1):
             pressure = pressure_response(model, deflection[finger])
             columns = slice(3 * finger, 3 * finger + 3)
@@ -770,13 +843,14 @@ class Scene:
             temperature = series(7 + finger)
             raw[:, columns] += temperature[:, None] * self._temperature_gain[columns]
             if self.dynamics:
-                shear = series(5 + finger) + self._jump_series(samples, finger, events,
-                                                                   jumps_before[finger])
+                shear = series(5 + finger) + jumps[finger]
+                # a release jolts the object, which shakes the other finger too
+                drive = shear + _RELEASE_COUPLING * jumps[1 - finger]
                 dynamic, self._resonator_state[finger] = lfilter(
-                    self._resonator_b, self._resonator_a, shear,
+                    self._resonator_b, self._resonator_a, drive,
                     zi=self._resonator_state[finger])
                 raw[:, columns] += (shear[:, None] * self._shear_gain[columns]
-                                    + (dynamic - shear)[:, None]
+                                    + (dynamic - drive)[:, None]
                                     * self._vibration_gain[columns])
         raw += self._draws.offsets
         raw += self._noise.read(first_sample, first_sample + count)
