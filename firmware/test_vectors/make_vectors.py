@@ -39,12 +39,14 @@ def sample(seq, time_us, values, overruns=0, flags=0, saturated=0):
 
 def ack(command, token, status, value):
     payload = struct.pack('<BBBBI', command, token, status, 0, value)
-    return frame(ACK, payload), f'frame ack command={command} token={token} status={status} value={value}'
+    text = f'frame ack command={command} token={token} status={status} value={value}'
+    return frame(ACK, payload), text
 
 
 def command(code, token, argument):
     payload = struct.pack('<BBH', code, token, argument)
-    return frame(COMMAND, payload), f'frame command command={code} token={token} argument={argument}'
+    text = f'frame command command={code} token={token} argument={argument}'
+    return frame(COMMAND, payload), text
 
 
 def info(rate_hz, device_id):
@@ -81,8 +83,8 @@ def main() -> None:
     vectors: list[tuple[str, str, bytes, list[str], dict[str, int]]] = []
 
     def add(name, description, data, frames, frames_n, corrupt, discarded, pending=0):
-        vectors.append((name, description, data, frames,
-                        dict(frames=frames_n, corrupt=corrupt, discarded=discarded, pending=pending)))
+        expect = dict(frames=frames_n, corrupt=corrupt, discarded=discarded, pending=pending)
+        vectors.append((name, description, data, frames, expect))
 
     add('empty', 'no input at all', b'', [], 0, 0, 0)
     add('single_sample', 'one sample frame', s0, [f0], 1, 0, 0)
