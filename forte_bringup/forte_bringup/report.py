@@ -131,7 +131,7 @@ def plot_grasp(trace: GraspTrace, path: str | Path) -> Path:
             ax.plot(t, trace.filtered[:, channel], color=colors[channel % 3],
                     linestyle='-' if channel < 3 else '--', linewidth=0.9, label=name)
     ax.set_ylabel('filtered\n[normalised]')
-    ax.legend(ncol=3, fontsize=7, loc='upper left')
+    _legend(ax, ncol=3)
     ax.set_title(_title(trace), fontsize=11)
 
     ax = axes[1]
@@ -144,7 +144,7 @@ def plot_grasp(trace: GraspTrace, path: str | Path) -> Path:
         estimate = np.where(trace.force_valid, trace.force, np.nan)
         ax.plot(t, estimate, color=colors[3], linewidth=1.2, label='estimated (SVR)')
     ax.set_ylabel('grip force [N]')
-    ax.legend(fontsize=7, loc='upper left')
+    _legend(ax)
 
     ax = axes[2]
     for channel, name in enumerate(CHANNEL_NAMES):
@@ -168,7 +168,7 @@ def plot_grasp(trace: GraspTrace, path: str | Path) -> Path:
         ax.axvline(onset, color='red', alpha=0.35, linewidth=1.0,
                    label='true slip onset' if index == 0 else None)
     ax.set_ylabel('moving variance\n[dB²]')
-    ax.legend(fontsize=7, loc='upper left')
+    _legend(ax)
 
     ax = axes[4]
     if trace.command.size:
@@ -192,6 +192,11 @@ def plot_grasp(trace: GraspTrace, path: str | Path) -> Path:
     figure.savefig(path, dpi=90, bbox_inches='tight')
     plt.close(figure)
     return path
+
+
+def _legend(ax, ncol: int = 1) -> None:
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(ncol=ncol, fontsize=7, loc='upper left')
 
 
 def _title(trace: GraspTrace) -> str:
