@@ -1,0 +1,587 @@
+"""Slip detection by the rise of spectral power (FORTE paper, section "Slip Detection").
+
+For every detector update (every ``hop`` samples, counted in samples), per channel:
+
+1. ``P`` = one-segment Welch power spectral density of the last ``N`` samples: constant
+   detrend, periodic Hann window (``scipy.signal.get_window('hann', N)``), one-sided
+   (bins other than DC and Nyquist doubled), density scaling ``1 / (fs * sum(w**2))``.
+2. ``psd_max_db`` = max over bins with ``f_min <= f <= f_max`` of ``10 * log10(P + eps)``.
+3. The last ``V`` values form a history ``H``. Moving variance ``var(H)`` (population
+   variance) if every consecutive difference ``H[k+1] - H[k] > delta``, else 0.
+4. Finger-group average of the moving variances (channels 0-2 left, 3-5 right); both
+   groups are set to 0 when either group average is below ``alpha``.
+5. Slip when either group average exceeds ``T``.
+
+Until the history holds ``V`` values, the moving variances are 0 and no slip is reported
+(``active`` is False).
+
+Fast and exact
+--------------
+The straightforward computation (:func:`slip_features_reference`) runs a Welch PSD on each
+window. :class:`SlipDetector` instead keeps, per channel, a sliding DFT of only the bins
+``k_min - 1 .. k_max + 1`` in an absolute phase frame,
+``A_k(t) = sum_{j=t-N+1..t} x[j] exp(-2i pi k j / N)``, updated by running sums of
+``(x[j] - x[j-N]) exp(-2i pi k j / N)``. The Hann window is the combination
+``0.5 D_k - 0.25 D_{k-1} - 0.25 D_{k+1}`` of unwindowed bins ``D_k`` (the periodic Hann
+window is three complex exponentials); the constant detrend changes only ``D_0`` (set to
+0), so bins ``k >= 1`` need no detrending. The increments are offset-free (``x[j] - x[j-N]``)
+so a DC offset such as raw ADC counts around 2048 adds no rounding error. Every
+``resync_interval`` updates (at fixed absolute update indices) the bins are recomputed
+directly from the window with its mean removed, which bounds the accumulated rounding error.
+
+Decisions are guarded: when a moving-variance comparison (``diff > delta``,
+``mean >= alpha``, ``mean > T``) of an update lies within a guard band around its threshold,
+that update's history is recomputed with the reference Welch PSD and decided from it, so
+slip decisions equal the reference's exactly.
+
+All arithmetic is elementwise numpy (no BLAS reductions of varying shape, fixed update
+boundaries, sequential cumulative sums), so feeding the detector in chunks of any size gives
+bit-for-bit the batch result.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import signal
+
+__all__ = [
+    'NonFiniteInputError',
+    'SlipDetector',
+    'SlipFeatures',
+    'SlipParams',
+    'decide_slip',
+    'reference_psd_max_db',
+    'slip_features',
+    'slip_features_reference',
+]
+
+N_CHANNELS = 6
+FINGER_CHANNELS = ((0, 1, 2), (3, 4, 5))
+
+
+class NonFiniteInputError(ValueError):
+    """Raised when input frames contain NaN or inf; the detector state is left unchanged."""
+
+
+@dataclass(frozen=True)
+class SlipParams:
+    """Parameters of the slip detector (paper, Table "Slip Detection Parameters").
+
+    Attributes
+    ----------
+    window : int
+        FFT window length N [samples] (400).
+    hop : int
+        Samples between detector updates (4 = overlap 0.99 at N = 400; 1 = every sample).
+    f_min, f_max : float
+        Frequency band [Hz], inclusive (10, 50).
+    history : int
+        PSD history length V [updates] (15).
+    delta : float
+        Minimal increment for monotonicity [dB] (0.1).
+    alpha : float
+        Minimum group average variance [dB^2] (0.6).
+    threshold : float
+        Slip detection threshold T [dB^2] (2.0).
+    eps : float
+        Constant added to the PSD before the logarithm [PSD units] (1e-12).
+    resync_interval : int
+        Updates between exact recomputations of the sliding DFT (numerics only).
+    guard_db : float
+        Half-width of the band around ``delta`` [dB] inside which a decision is re-made
+        with the reference PSD (numerics only).
+    guard_variance : float
+        Half-width of the band around ``alpha`` and ``T`` [dB^2], same purpose.
+    """
+
+    window: int = 400
+    hop: int = 4
+    f_min: float = 10.0
+    f_max: float = 50.0
+    history: int = 15
+    delta: float = 0.1
+    alpha: float = 0.6
+    threshold: float = 2.0
+    eps: float = 1e-12
+    resync_interval: int = 250
+    guard_db: float = 1e-7
+    guard_variance: float = 1e-6
+
+    def validate(self, fs: float = 2000.0) -> None:
+        """Raise ValueError with a reason if the parameters are unusable at rate ``fs`` [Hz]."""
+        if not np.isfinite(fs) or fs <= 0:
+            raise ValueError(f'fs must be a positive finite rate, got {fs}')
+        if int(self.window) != self.window or self.window < 8:
+            raise ValueError(f'window must be an integer >= 8, got {self.window}')
+        if int(self.hop) != self.hop or not 1 <= self.hop <= self.window:
+            raise ValueError(f'hop must be an integer in [1, window], got {self.hop}')
+        if int(self.history) != self.history or self.history < 2:
+            raise ValueError(f'history must be an integer >= 2, got {self.history}')
+        if not (0 <= self.f_min <= self.f_max <= fs / 2):
+            raise ValueError(
+                f'need 0 <= f_min <= f_max <= fs/2, got f_min={self.f_min} f_max={self.f_max}')
+        if not bins_in_band(self, fs).size:
+            raise ValueError(
+                f'no FFT bin (spacing {fs / self.window} Hz) inside '
+                f'[{self.f_min}, {self.f_max}] Hz')
+        for name in ('delta', 'alpha', 'threshold'):
+            if not np.isfinite(getattr(self, name)):
+                raise ValueError(f'{name} must be finite')
+        if not (self.eps > 0 and np.isfinite(self.eps)):
+            raise ValueError(f'eps must be positive, got {self.eps}')
+        if int(self.resync_interval) != self.resync_interval or self.resync_interval < 1:
+            raise ValueError(f'resync_interval must be an integer >= 1, got {self.resync_interval}')
+        if not (self.guard_db >= 0 and self.guard_variance >= 0):
+            raise ValueError('guards must be >= 0')
+
+
+def bins_in_band(params: SlipParams, fs: float) -> np.ndarray:
+    """FFT bin indices k with ``f_min <= k * fs / N <= f_max`` and ``k <= N // 2``, shape (b,)."""
+    n = int(params.window)
+    k = np.arange(n // 2 + 1)
+    f = k * (fs / n)
+    return k[(f >= params.f_min) & (f <= params.f_max)]
+
+
+@dataclass
+class SlipFeatures:
+    """Per-update slip detector output.
+
+    Attributes
+    ----------
+    sample_index : ndarray, shape (m,), int64
+        Index of the last sample of each update's window (first update: N - 1).
+    psd_max_db : ndarray, shape (m, 6)
+        Band maximum of ``10*log10(P + eps)`` per channel [dB re 1/Hz].
+    channel_variance : ndarray, shape (m, 6)
+        Per-channel moving variance (0 unless monotonic rise) [dB^2].
+    finger_variance : ndarray, shape (m, 2)
+        Finger-group average moving variance after the alpha gate (left, right) [dB^2].
+    slip : ndarray, shape (m,), bool
+        Slip indicator eta.
+    active : ndarray, shape (m,), bool
+        True once the history holds V values.
+    """
+
+    sample_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    psd_max_db: np.ndarray = field(default_factory=lambda: np.zeros((0, N_CHANNELS)))
+    channel_variance: np.ndarray = field(default_factory=lambda: np.zeros((0, N_CHANNELS)))
+    finger_variance: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    slip: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    active: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+
+    def __len__(self) -> int:
+        return int(self.sample_index.shape[0])
+
+    @staticmethod
+    def concatenate(parts: list[SlipFeatures]) -> SlipFeatures:
+        """Join consecutive per-chunk results into one."""
+        if not parts:
+            return SlipFeatures()
+        return SlipFeatures(
+            sample_index=np.concatenate([p.sample_index for p in parts]),
+            psd_max_db=np.concatenate([p.psd_max_db for p in parts]),
+            channel_variance=np.concatenate([p.channel_variance for p in parts]),
+            finger_variance=np.concatenate([p.finger_variance for p in parts]),
+            slip=np.concatenate([p.slip for p in parts]),
+            active=np.concatenate([p.active for p in parts]),
+        )
+
+
+def _check_frames(frames: np.ndarray) -> np.ndarray:
+    x = np.asarray(frames, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != N_CHANNELS:
+        raise ValueError(f'frames must have shape (n, {N_CHANNELS}), got {x.shape}')
+    if not np.isfinite(x).all():
+        bad = np.argwhere(~np.isfinite(x))[0]
+        raise NonFiniteInputError(
+            f'non-finite input (NaN or inf) at row {bad[0]}, channel {bad[1]}; '
+            'chunk rejected, detector state unchanged')
+    return x
+
+
+# ----------------------------------------------------------------------------- decisions
+def _decide_terms(h: list[np.ndarray], params: SlipParams
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Decision arithmetic on V arrays of equal shape (6, ...), oldest first.
+
+    Elementwise in a fixed order, so a result does not depend on how many updates are
+    decided together or on the memory layout.
+    Returns channel_variance (6, ...), finger (2, ...), slip (...), min_diff (6, ...),
+    finger_raw (2, ...).
+    """
+    v = len(h)
+    min_diff = h[1] - h[0]
+    for i in range(2, v):
+        min_diff = np.minimum(min_diff, h[i] - h[i - 1])
+    total = h[0].copy()
+    for i in range(1, v):
+        total = total + h[i]
+    mean = total / v
+    sq = (h[0] - mean) ** 2
+    for i in range(1, v):
+        sq = sq + (h[i] - mean) ** 2
+    variance = sq / v
+    channel_variance = np.where(min_diff > params.delta, variance, 0.0)
+    left = (channel_variance[0] + channel_variance[1] + channel_variance[2]) / 3.0
+    right = (channel_variance[3] + channel_variance[4] + channel_variance[5]) / 3.0
+    finger_raw = np.stack([left, right], axis=0)
+    gate = (left >= params.alpha) & (right >= params.alpha)
+    finger = np.where(gate, finger_raw, 0.0)
+    slip = np.maximum(finger[0], finger[1]) > params.threshold
+    return channel_variance, finger, slip, min_diff, finger_raw
+
+
+def decide_slip(history: np.ndarray, params: SlipParams
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Moving variance, finger average, alpha gate and threshold for full histories.
+
+    Parameters
+    ----------
+    history : ndarray, shape (m, V, 6)
+        The last V ``psd_max_db`` values (oldest first) of m updates [dB].
+    params : SlipParams
+
+    Returns
+    -------
+    channel_variance : ndarray, shape (m, 6) [dB^2]
+    finger_variance : ndarray, shape (m, 2) [dB^2]
+    slip : ndarray, shape (m,), bool
+    min_diff : ndarray, shape (m, 6)
+        Smallest consecutive difference per channel [dB].
+    """
+    hist = np.asarray(history, dtype=np.float64)
+    terms = [np.ascontiguousarray(hist[:, i, :].T) for i in range(hist.shape[1])]
+    cv, fv, sl, md, _ = _decide_terms(terms, params)
+    return cv.T, fv.T, sl, md.T
+
+
+def _borderline(finger_raw: np.ndarray, min_diff: np.ndarray, params: SlipParams) -> np.ndarray:
+    """Updates whose decision could flip inside the numerical guard bands, shape (m,).
+
+    ``finger_raw`` (2, m) and ``min_diff`` (6, m).
+    """
+    near_delta = np.abs(min_diff - params.delta) <= params.guard_db
+    g = params.guard_variance
+    near_alpha = np.abs(finger_raw - params.alpha) <= g * max(1.0, abs(params.alpha))
+    near_t = np.abs(finger_raw - params.threshold) <= g * max(1.0, abs(params.threshold))
+    return near_delta.any(axis=0) | near_alpha.any(axis=0) | near_t.any(axis=0)
+
+
+def _finish(psd: np.ndarray, first_update: int, params: SlipParams, prior: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Decisions for consecutive updates ``first_update ..`` given the previous history.
+
+    ``psd`` (m, 6); ``prior`` (h, 6) holds up to V-1 psd values of the updates just before.
+    Returns channel_variance (m, 6), finger_variance (m, 2), slip (m,), active (m,),
+    borderline (m,).
+    """
+    v = int(params.history)
+    m = psd.shape[0]
+    channel_variance = np.zeros((m, N_CHANNELS))
+    finger = np.zeros((m, 2))
+    slip = np.zeros(m, bool)
+    border = np.zeros(m, bool)
+    active = (first_update + np.arange(m)) >= v - 1
+    if active.any():
+        first = int(np.argmax(active))  # active updates are a suffix
+        series = np.ascontiguousarray(np.concatenate([prior, psd], axis=0).T)  # (6, h + m)
+        offset = prior.shape[0]
+        ma = m - first
+        lo = offset + first - v + 1  # history of the first active update starts here
+        terms = [series[:, lo + i:lo + i + ma] for i in range(v)]
+        cv, fv, sl, md, fraw = _decide_terms(terms, params)
+        channel_variance[first:] = cv.T
+        finger[first:] = fv.T
+        slip[first:] = sl
+        border[first:] = _borderline(fraw, md, params)
+    return channel_variance, finger, slip, active, border
+
+
+# ----------------------------------------------------------------------------- reference
+def reference_psd_max_db(window: np.ndarray, fs: float, params: SlipParams) -> np.ndarray:
+    """Straightforward PSD feature of one window with ``scipy.signal.welch``.
+
+    Parameters
+    ----------
+    window : ndarray, shape (N, 6)
+    fs : float
+        Sampling rate [Hz].
+    params : SlipParams
+
+    Returns
+    -------
+    ndarray, shape (6,)
+        ``max over f_min <= f <= f_max of 10*log10(P + eps)`` [dB re 1/Hz].
+    """
+    n = int(params.window)
+    f, p = signal.welch(window, fs=fs, window='hann', nperseg=n, noverlap=0,
+                        detrend='constant', return_onesided=True, scaling='density', axis=0)
+    band = (f >= params.f_min) & (f <= params.f_max)
+    return np.max(10.0 * np.log10(p[band] + params.eps), axis=0)
+
+
+def slip_features_reference(frames: np.ndarray, fs: float = 2000.0,
+                            params: SlipParams | None = None,
+                            vectorized: bool = False) -> SlipFeatures:
+    """The straightforward baseline: a Welch PSD of every window at every update.
+
+    Same signature and output as :func:`slip_features`; used by the tests and benchmarks.
+
+    Parameters
+    ----------
+    vectorized : bool
+        False: one ``scipy.signal.welch`` call per window (the definition, and what guarded
+        decisions use). True: welch over blocks of stacked windows (much faster; FFT
+        batching may change the last bits, ~1e-14 dB).
+    """
+    params = params or SlipParams()
+    params.validate(fs)
+    x = _check_frames(frames)
+    n, hop = int(params.window), int(params.hop)
+    if x.shape[0] < n:
+        return SlipFeatures()
+    ends = np.arange(n - 1, x.shape[0], hop)
+    psd = np.empty((ends.size, N_CHANNELS))
+    if vectorized:
+        windows = np.lib.stride_tricks.sliding_window_view(x, n, axis=0)[::hop]  # (m, 6, N)
+        for b in range(0, ends.size, 2000):
+            f, p = signal.welch(windows[b:b + 2000], fs=fs, window='hann', nperseg=n,
+                                noverlap=0, detrend='constant', scaling='density', axis=-1)
+            band = (f >= params.f_min) & (f <= params.f_max)
+            psd[b:b + 2000] = np.max(10.0 * np.log10(p[..., band] + params.eps), axis=-1)
+    else:
+        for i, t in enumerate(ends):
+            psd[i] = reference_psd_max_db(x[t - n + 1:t + 1], fs, params)
+    cv, fv, sl, act, _ = _finish(psd, 0, params, np.zeros((0, N_CHANNELS)))
+    return SlipFeatures(ends.astype(np.int64), psd, cv, fv, sl, act)
+
+
+# ----------------------------------------------------------------------------- fast
+class SlipDetector:
+    """Streaming slip detector: feed frames in chunks of any size.
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate [Hz].
+    params : SlipParams, optional
+        Defaults to the paper's values.
+
+    Notes
+    -----
+    Updates happen at absolute sample indices ``N - 1 + u * hop`` (u = 0, 1, ...) counted
+    from the last :meth:`reset`. Results are bit-for-bit independent of the chunking.
+    """
+
+    def __init__(self, fs: float = 2000.0, params: SlipParams | None = None) -> None:
+        self.params = params or SlipParams()
+        self.params.validate(fs)
+        self.fs = float(fs)
+        n = int(self.params.window)
+        self._n = n
+        self._hop = int(self.params.hop)
+        band = bins_in_band(self.params, self.fs)
+        self._band = band
+        # unwindowed bins needed: k_min - 1 .. k_max + 1 (k = -1 and k > N/2 are fine)
+        self._bins = np.arange(band[0] - 1, band[-1] + 2)
+        angle = 2.0 * np.pi * np.outer(np.arange(n), self._bins) / n  # (N, K)
+        # exp(-i 2 pi k j / N) = cos - i sin, tabulated over j mod N
+        self._cos_t = np.ascontiguousarray(np.cos(angle).T)  # (K, N)
+        self._sin_t = np.ascontiguousarray(np.sin(angle).T)
+        unit = 2.0 * np.pi * np.arange(n) / n
+        self._unit_conj = np.cos(unit) + 1j * np.sin(unit)  # exp(+2i pi p / N)
+        self._block = 2048  # updates per vectorised block (cache size; no effect on results)
+        i = np.arange(self._hop)
+        ang = 2.0 * np.pi * (np.outer(self._bins, i) % n) / n
+        # rows: cos(2 pi k i / N) for each k, then -sin(2 pi k i / N): (2K, hop)
+        self._hop_dft_real = np.ascontiguousarray(np.concatenate([np.cos(ang), -np.sin(ang)]))
+        # rotation to the window frame: D_k = exp(+i 2 pi k s / N) A_k, s = window start
+        self._zero_dc = self._bins == 0
+        s2 = float(np.sum(signal.get_window('hann', n) ** 2))
+        doubling = np.where((band == 0) | ((n % 2 == 0) & (band == n // 2)), 1.0, 2.0)
+        self._scale = (doubling / (16.0 * self.fs * s2))[:, None, None]  # (B, 1, 1)
+        self._uniform_scale = bool(np.all(doubling == doubling[0]))
+        self._keep = n + (int(self.params.history) - 1) * self._hop + self._hop
+        self.reset()
+
+    # -- state
+    def reset(self) -> None:
+        """Forget every sample: the next sample is index 0 again."""
+        self._buffer = np.zeros((0, N_CHANNELS))
+        self._buffer_start = 0  # absolute index of _buffer[0]
+        self._samples = 0
+        self._updates = 0
+        self._a = np.zeros((self._bins.size, N_CHANNELS), np.complex128)
+        self._psd_history = np.zeros((0, N_CHANNELS))
+        self.reference_recomputations = 0
+
+    @property
+    def samples_seen(self) -> int:
+        """Samples consumed since the last reset [count]."""
+        return self._samples
+
+    @property
+    def updates(self) -> int:
+        """Detector updates since the last reset [count]."""
+        return self._updates
+
+    # -- core
+    def _exact(self, buf_t: np.ndarray, lo: int, start: int) -> np.ndarray:
+        """A_k (K, 6) complex of the window ``buf_t[:, lo:lo + N]`` (absolute start ``start``).
+
+        The window mean is removed first (it changes only k = 0, which is zeroed anyway)
+        to keep the magnitudes, and so the rounding, small. Fixed shapes, so the result does
+        not depend on the caller.
+        """
+        w = np.ascontiguousarray(buf_t[:, lo:lo + self._n].T)  # (N, 6)
+        w = w - w.mean(axis=0)
+        phase = (start + np.arange(self._n)) % self._n
+        c = np.ascontiguousarray(self._cos_t[:, phase])  # (K, N)
+        s = np.ascontiguousarray(self._sin_t[:, phase])
+        return (c @ w) - 1j * (s @ w)
+
+    def update(self, frames: np.ndarray) -> SlipFeatures:
+        """Consume frames (n, 6) and return the updates completed inside them.
+
+        Raises
+        ------
+        NonFiniteInputError
+            If the chunk contains NaN or inf (nothing is consumed).
+        """
+        x = _check_frames(frames)
+        n, hop = self._n, self._hop
+        buf = np.concatenate([self._buffer, x], axis=0) if self._buffer.size else x
+        start = self._buffer_start
+        last = self._samples + x.shape[0] - 1
+        u0 = self._updates
+        first_t = n - 1 + u0 * hop
+        m = 0 if last < first_t else (last - first_t) // hop + 1
+        self._samples += x.shape[0]
+        if m == 0:
+            self._store(buf, start)
+            return SlipFeatures()
+        ends = first_t + hop * np.arange(m)
+        buf_t = np.ascontiguousarray(buf.T)  # (6, L): updates on the fast axis below
+        psd = np.empty((m, N_CHANNELS))
+        for b in range(0, m, self._block):
+            e = ends[b:b + self._block]
+            psd[b:b + e.size] = self._psd_block(buf_t, start, e, u0 + b)
+        prior = self._psd_history
+        cv, fv, sl, act, border = _finish(psd, u0, self.params, prior)
+        if border.any():
+            self._redecide(border, buf, start, ends, cv, fv, sl)
+        self._updates += m
+        v = int(self.params.history)
+        self._psd_history = np.concatenate([prior, psd], axis=0)[-(v - 1):]
+        self._store(buf, start)
+        return SlipFeatures(ends.astype(np.int64), psd, cv, fv, sl, act)
+
+    def _psd_block(self, buf_t: np.ndarray, start: int, ends: np.ndarray,
+                   first_update: int) -> np.ndarray:
+        """psd_max_db (mb, 6) of consecutive updates ending at ``ends`` (mb,).
+
+        Layout (bins, channels, updates): the update axis is the contiguous one.
+        """
+        n, hop = self._n, self._hop
+        mb = ends.size
+        upd = first_update + np.arange(mb)
+        resync = np.nonzero(upd % int(self.params.resync_interval) == 0)[0]
+        # increments: inc_k(u) = sum over the update's hop samples j of
+        # (x[j] - x[j-N]) exp(-2i pi k j/N) = exp(-2i pi k q/N) * G_k(u), q = first sample,
+        # G_k(u) = sum_i (x[q+i] - x[q+i-N]) exp(-2i pi k i/N): one matrix product
+        lo = int(ends[0]) - hop + 1 - start  # first increment sample, relative to buffer
+        hi = int(ends[-1]) + 1 - start
+        pad = max(0, n - lo)  # only update 0 (a resync) lacks x[j - N]; its increment is unused
+        diff = np.zeros((N_CHANNELS, hi - lo))
+        diff[:, pad:] = buf_t[:, lo + pad:hi] - buf_t[:, lo + pad - n:hi - n]
+        by_hop = np.ascontiguousarray(diff.reshape(N_CHANNELS, mb, hop).transpose(2, 0, 1))
+        prod = self._hop_dft_real @ by_hop.reshape(hop, N_CHANNELS * mb)  # (2K, 6 mb)
+        k = self._bins.size
+        g = np.empty((k, N_CHANNELS * mb), np.complex128)
+        g.real = prod[:k]
+        g.imag = prod[k:]
+        q = (ends - hop + 1) % n
+        rot = self._unit_conj[(-(self._bins[:, None] * q[None, :])) % n]  # (K, mb)
+        inc = g.reshape(-1, N_CHANNELS, mb) * rot[:, None, :]
+        # running sums between resync points, continuing from the stored state
+        a = np.empty_like(inc)
+        cur = self._a
+        pos = 0
+        for nxt in [*resync.tolist(), mb]:
+            if nxt > pos:
+                seg = np.concatenate([cur[:, :, None], inc[:, :, pos:nxt]], axis=2)
+                a[:, :, pos:nxt] = np.cumsum(seg, axis=2)[:, :, 1:]
+                cur = a[:, :, nxt - 1]
+            if nxt < mb:
+                t = int(ends[nxt])
+                a[:, :, nxt] = self._exact(buf_t, t - n + 1 - start, t - n + 1)
+                cur = a[:, :, nxt]
+                pos = nxt + 1
+        self._a = cur.copy()
+        # rotate to the window frame: D_k = exp(+2i pi k s / N) A_k, s = window start
+        ph = (self._bins[:, None] * ((ends - n + 1) % n)[None, :]) % n  # (K, mb)
+        d = a * self._unit_conj[ph][:, None, :]
+        if self._zero_dc.any():  # constant detrend: D_0 = 0
+            d[self._zero_dc] = 0.0
+        # Hann: X_k = (2 D_k - D_{k-1} - D_{k+1}) / 4; the 1/16 is folded into the scale
+        x = 2.0 * d[1:-1] - (d[:-2] + d[2:])
+        p = x.real * x.real + x.imag * x.imag  # (B, 6, mb)
+        if self._uniform_scale:
+            top = p.max(axis=0) * self._scale[0, 0, 0]
+        else:
+            top = (p * self._scale).max(axis=0)
+        return (10.0 * np.log10(top + self.params.eps)).T
+
+    def _redecide(self, border: np.ndarray, buf: np.ndarray, start: int, ends: np.ndarray,
+                  cv: np.ndarray, fv: np.ndarray, sl: np.ndarray) -> None:
+        """Re-make borderline decisions from the reference PSD of their whole history."""
+        n, hop, v = self._n, self._hop, int(self.params.history)
+        cache: dict[int, np.ndarray] = {}
+        for i in np.nonzero(border)[0]:
+            hist = np.empty((v, N_CHANNELS))
+            for h in range(v):
+                t = int(ends[i] - (v - 1 - h) * hop)
+                if t not in cache:
+                    cache[t] = reference_psd_max_db(buf[t - n + 1 - start:t + 1 - start],
+                                                    self.fs, self.params)
+                hist[h] = cache[t]
+            c, f, s, _ = decide_slip(hist[None], self.params)
+            cv[i], fv[i], sl[i] = c[0], f[0], s[0]
+            self.reference_recomputations += 1
+
+    def _store(self, buf: np.ndarray, start: int) -> None:
+        """Keep the samples the next updates (and a guarded re-decision) may need."""
+        n, hop, v = self._n, self._hop, int(self.params.history)
+        next_t = n - 1 + self._updates * hop
+        first_needed = max(0, next_t - hop - (v - 1) * hop - n + 1)
+        drop = max(0, first_needed - start)
+        self._buffer = buf[drop:].copy()
+        self._buffer_start = start + drop
+
+
+def slip_features(frames: np.ndarray, fs: float = 2000.0,
+                  params: SlipParams | None = None) -> SlipFeatures:
+    """Slip features of a whole recording (fast path; equal to feeding :class:`SlipDetector`).
+
+    Parameters
+    ----------
+    frames : ndarray, shape (n, 6)
+        Already preprocessed samples (this applies only the slip computation).
+    fs : float
+        Sampling rate [Hz].
+    params : SlipParams, optional
+
+    Returns
+    -------
+    SlipFeatures
+        m = 0 if n < N, else ``(n - N) // hop + 1`` updates.
+    """
+    detector = SlipDetector(fs, params)
+    x = _check_frames(frames)
+    parts = []
+    block = 65536  # bounds temporary memory; chunking does not change the result
+    for i in range(0, x.shape[0], block):
+        parts.append(detector.update(x[i:i + block]))
+    return SlipFeatures.concatenate(parts)

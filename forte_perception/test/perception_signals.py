@@ -1,0 +1,39 @@
+"""Synthetic test signals shared by the perception tests (deterministic, seeded)."""
+from __future__ import annotations
+
+import numpy as np
+
+FS = 2000.0
+
+
+def random_walk(n: int, seed: int = 0, scale: float = 1e-3) -> np.ndarray:
+    """Brownian drift plus white noise, (n, 6)."""
+    rng = np.random.default_rng(seed)
+    return np.cumsum(rng.normal(size=(n, 6)), axis=0) * scale + rng.normal(size=(n, 6)) * scale
+
+
+def slip_bursts(n: int, seed: int = 0, onsets: tuple[int, ...] = (6000, 16000),
+                growth_db_per_s: float = 600.0, duration: float = 0.12,
+                noise: float = 2e-4) -> np.ndarray:
+    """Quiet noise with bursts whose 25 Hz power rises exponentially (a slip-like PSD rise).
+
+    Every channel gets the burst (so both finger groups pass the alpha gate), each with its
+    own phase and gain.
+    """
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / FS
+    x = rng.normal(size=(n, 6)) * noise
+    for onset in onsets:
+        k = np.arange(n) - onset
+        on = (k >= 0) & (k < duration * FS)
+        amp = np.zeros(n)
+        amp[on] = 1e-3 * 10.0 ** (growth_db_per_s * k[on] / FS / 20.0)
+        for c in range(6):
+            gain = 0.6 + 0.1 * c
+            x[:, c] += gain * amp * np.sin(2 * np.pi * 25.0 * t + rng.uniform(0, 2 * np.pi))
+    return x
+
+
+def quantise(x: np.ndarray) -> np.ndarray:
+    """11-bit normalised quantisation (step 2/2048), clipped to [-1, 1]."""
+    return np.clip(np.round(x * 1024.0) / 1024.0, -1.0, 1.0 - 1.0 / 1024.0)
