@@ -176,6 +176,7 @@ class LatencyWorld:
         self.sent_slip_at = None
         self.latencies: list[float] = []
         self.commands = 0
+        self.slip_next = False
         self.subscriber_node.create_subscription(ServoCommand, 'gripper/command',
                                                  self.on_command, q10)
         self.subscriber_node.create_subscription(TwistStamped, 'arm/cmd_vel',
@@ -186,13 +187,12 @@ class LatencyWorld:
         self.executor.add_node(self.subscriber_node)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
         self.thread.start()
-        self.slip_next = False
 
     def on_command(self, msg) -> None:
         received = time.monotonic()
         with self.lock:
             self.commands += 1
-            self.theta = max(msg.position, 0.45)  # object blocks the fingers at 0.45 rad
+            self.theta = msg.position  # a soft object: 10 N/rad beyond contact at 0.5 rad
             if self.sent_slip_at is not None:
                 self.latencies.append(received - self.sent_slip_at)
                 self.sent_slip_at = None
@@ -338,6 +338,7 @@ def bench_latency_in_process(events: int = 200) -> None:
     rclpy.init()
     node = GraspControllerNode(parameter_overrides=[
         Parameter('slip_refractory', value=0.0), Parameter('slip_increment', value=0.002),
+        Parameter('initial_force_mode', value='absolute'),
         Parameter('max_tightening', value=0.6), Parameter('lift_distance', value=0.2),
         Parameter('timeout', value=600.0),
         Parameter('perception_timeout', value=1.0), Parameter('joint_state_timeout', value=1.0)])

@@ -628,3 +628,19 @@ def test_long_run_is_stable():
         out = rig.run_until(lambda o: o.state == GraspState.DONE)
         assert out.outcome == Outcome.LIFTED
         assert out.lift_height == pytest.approx(0.005, abs=0.005 * DT + 1e-9)
+
+
+def test_contact_and_force_at_the_first_step_then_slip():
+    """CLOSING -> LOADING -> LIFTING within one step still has a command to tighten from."""
+    rig = Rig(replace(ControllerParams(), initial_force_mode='absolute'))
+    rig.theta = 0.5
+    rig.contact = (True, True)
+    rig.force = 0.5
+    assert rig.start()[0]
+    out = rig.tick()
+    assert out.state == GraspState.LIFTING
+    assert out.servo.position == pytest.approx(0.5)
+    rig.slip = True
+    out = rig.tick()
+    assert out.slip_reacted
+    assert out.servo.position == pytest.approx(0.5 - PAPER_SLIP_INCREMENT)
