@@ -149,7 +149,7 @@ class ControllerParams:
     release_tolerance: float = 0.02         # joint angle tolerance to finish releasing [rad]
     release_timeout: float = 3.0            # longest RELEASING [s]
     # safety
-    max_force: float = 6.0                  # force cap [N]
+    max_force: float = 8.0                  # force cap [N] (top of the force model range)
     max_tightening: float = 20 * PAPER_SLIP_INCREMENT  # cap on total slip tightening [rad]
     max_lift_distance: float = 0.2          # lift cap [m]
     max_lift_speed: float = 0.02            # largest lift speed a goal may ask [m/s]

@@ -325,7 +325,7 @@ def test_drop_detected_from_sensors(harness):
 
 
 def test_invalid_goal_and_unsafe_parameters_refused(harness):
-    assert not harness.send(max_force=9.9).accepted  # above the node cap of 6 N
+    assert not harness.send(max_force=9.9).accepted  # above the node cap of 8 N
     assert not harness.send(controller=9).accepted
     results = harness.controller.set_parameters([Parameter('max_force', value=50.0)])
     assert not results[0].successful
@@ -335,7 +335,7 @@ def test_invalid_goal_and_unsafe_parameters_refused(harness):
     assert harness.controller.get_parameter('initial_force').value == 0.25
     results = harness.controller.set_parameters([Parameter('contact_mode', value='any')])
     assert not results[0].successful and 'contact_mode' in results[0].reason
-    assert harness.controller._machine.params.max_force == 6.0
+    assert harness.controller._machine.params.max_force == 8.0
     results = harness.controller.set_parameters([Parameter('max_force', value=3.0)])
     assert results[0].successful and harness.controller._machine.params.max_force == 3.0
 

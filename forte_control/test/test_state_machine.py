@@ -390,7 +390,7 @@ def test_loading_waits_for_valid_force_then_faults():
 def test_force_limit_fault_and_reset_refused_while_above():
     rig = Rig()
     rig.to_lifting()
-    rig.force = 6.5
+    rig.force = 8.5
     out = rig.tick()
     assert out.state == GraspState.FAULT and out.outcome == Outcome.FORCE_LIMIT
     assert out.fault_flags == FaultFlag.FORCE_LIMIT and out.arm_velocity == 0.0
@@ -408,7 +408,7 @@ def test_force_limit_fault_and_reset_refused_while_above():
 
 def test_goal_caps_can_only_tighten():
     rig = Rig()
-    assert not rig.start(max_force=8.0)[0]
+    assert not rig.start(max_force=9.0)[0]
     assert not rig.start(lift_distance=0.5)[0]
     assert not rig.start(lift_speed=0.05)[0]
     assert not rig.start(max_tightening=1.0)[0]
