@@ -87,8 +87,11 @@ class TrialResult:
     object_state : str
         Ground-truth object state at the end (HELD, DROPPED, BROKEN, CRUSHED, RESTING).
     success : bool
-        Ground truth: the object ends held (neither dropped, broken nor crushed) and was
-        lifted at least ``success_height`` (the paper's "successfully lifted").
+        The controller completed the lift (outcome LIFTED) and the ground truth agrees: the
+        object ends held (neither dropped, broken nor crushed) at least ``success_height``
+        above the table (the paper's "successfully lifted"). A lift the controller believes
+        complete while the object stayed on the table (smooth gross slip it cannot sense) is
+        not a success.
     message : str
         The controller's last message.
     fault_flags : int
@@ -472,12 +475,14 @@ def run_trial(object_name: str, controller, seed: int = 0,
     object_state = OBJECT_STATE_NAMES.get(final['object_state'], str(final['object_state']))
     during_lift = (lambda times: [x for x in times if x >= lift_start]) \
         if not math.isnan(lift_start) else (lambda times: [])
-    success = (object_state == 'HELD' and final['object_height'] >= success_height)
+    outcome = Outcome(int(outputs.outcome)).name
+    success = (outcome == 'LIFTED' and object_state == 'HELD'
+               and final['object_height'] >= success_height)
     if traces is not None:
         traces = {key: np.asarray(value) for key, value in traces.items()}
     return TrialResult(
         object_name=object_name, controller=kind.name, seed=int(seed), trial=int(trial),
-        outcome=Outcome(int(outputs.outcome)).name, object_state=object_state,
+        outcome=outcome, object_state=object_state,
         success=bool(success), message=outputs.message, fault_flags=int(outputs.fault_flags),
         final_height=float(final['object_height']), max_true_force=max_true_force,
         max_estimated_force=max_estimated if math.isfinite(max_estimated) else math.nan,
