@@ -79,6 +79,10 @@ _TEXTURE_POINTS = 400       # covers 0.2 m of sliding
 _TEXTURE_VARIATION = 0.4    # relative spread of the static friction excess [-]
 _AGING_TIME = 0.15          # static friction recovery time of a stuck contact [s]
 _MIN_RELEASE = 0.004        # static minus kinetic capacity below which slip is smooth [N]
+_SEATING_SPREAD = 0.08      # indentor height jitter on the finger, +- [-]
+_CENTRING_SPREAD = 1.5      # indentor centring jitter, +- [mm]
+_RIG_TEMPERATURE_SPREAD = 0.5   # indentor minus finger temperature, std [K]
+_RESIDUAL_RELAXATION = 1.0  # relaxation left from earlier grasps, up to [N]
 _STICK_SLIP_HOLD = 0.1      # a release labels stick-slip for this long [s]
 _RELEASE_COUPLING = 0.5     # share of a release step felt by the other finger [-]
 
@@ -226,9 +230,16 @@ class Scene:
             )
             width = obj.width
         elif indentor is not None:
-            draws = _Trial(lateral_offset=0.0, contact_location=indentor.contact_location,
+            # the indentor is seated by hand: its height on the fingers and its centring
+            # vary from trial to trial, and it may be warmer or colder than the fingers
+            location = indentor.contact_location + rng.uniform(-_SEATING_SPREAD,
+                                                               _SEATING_SPREAD)
+            draws = _Trial(lateral_offset=float(rng.uniform(-_CENTRING_SPREAD,
+                                                            _CENTRING_SPREAD)),
+                           contact_location=float(np.clip(location, 0.0, 1.0)),
                            contact_spread=indentor.contact_spread, mu_scale=1.0,
-                           com_offset=0.0, temperature=float(rng.normal(0.0, 0.1)),
+                           com_offset=0.0,
+                           temperature=float(rng.normal(0.0, _RIG_TEMPERATURE_SPREAD)),
                            break_scale=1.0)
             width = indentor.width
         else:
@@ -275,7 +286,9 @@ class Scene:
         self._force = [0.0, 0.0]                      # [N]
         self._local_stiffness = [0.0, 0.0]            # [N/mm]
         self._relax1 = [0.0, 0.0]
-        self._relax2 = [0.0, 0.0]
+        # the fingers still recover from earlier squeezes (long relaxation branch)
+        residual = float(rng.uniform(0.0, _RESIDUAL_RELAXATION))
+        self._relax2 = [residual, residual]
         self._slide = [0.0, 0.0]                      # finger travel up the object [m]
         self._shear = [0.0, 0.0]                      # tangential force on the object [N]
         self._jumps = [0.0, 0.0]                      # cumulative release steps [N]
