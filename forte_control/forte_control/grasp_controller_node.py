@@ -27,6 +27,7 @@ from collections import deque
 from dataclasses import fields, replace
 
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped
 from rcl_interfaces.msg import (
     FloatingPointRange,
@@ -220,6 +221,10 @@ class GraspControllerNode(Node):
                                         callback_group=self._control_group)
         self._state_timer = self.create_timer(self._feedback_period, self._publish_state_timer,
                                               callback_group=self._control_group)
+        self._diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics',
+                                                      reliable10)
+        self._diagnostics_timer = self.create_timer(1.0, self._publish_diagnostics,
+                                                    callback_group=self._control_group)
         self._action = ActionServer(
             self, Grasp, 'grasp', execute_callback=self._execute,
             goal_callback=self._on_goal, cancel_callback=self._on_cancel,
@@ -391,6 +396,46 @@ class GraspControllerNode(Node):
     def _publish_state_timer(self) -> None:
         with self._lock:
             self._publish_state(force=True)
+
+    # -- diagnostics -----------------------------------------------------------------------
+    def _publish_diagnostics(self) -> None:
+        with self._lock:
+            now = self._now()
+            state = self._machine.state
+            flags = self._machine.fault_flags
+            status = DiagnosticStatus()
+            status.name = f'{self.get_name()}: grasp controller'
+            status.hardware_id = 'forte'
+            if state == GraspState.FAULT:
+                status.level = DiagnosticStatus.ERROR
+            elif self._dry_run:
+                status.level = DiagnosticStatus.WARN
+            else:
+                status.level = DiagnosticStatus.OK
+            status.message = f'{state.name}' + (' (dry run)' if self._dry_run else '') + \
+                (f': {self._last_outputs.message}' if self._last_outputs is not None else '')
+            ages = {
+                'perception_age_s': now - self._perception.stamp
+                if self._perception is not None else math.nan,
+                'joint_state_age_s': now - self._joint.stamp
+                if self._joint is not None else math.nan,
+            }
+            latencies = sorted(self.slip_reaction_latency)
+            values = {
+                'state': state.name, 'fault_flags': str(int(flags)),
+                'last_outcome': self._machine.last_outcome.name,
+                **{k: f'{v:.4f}' for k, v in ages.items()},
+                **{k: str(v) for k, v in self.counters.items()},
+                'slip_reaction_latency_p50_ms': f'{latencies[len(latencies) // 2] * 1e3:.3f}'
+                if latencies else 'n/a',
+                'slip_reaction_latency_max_ms': f'{latencies[-1] * 1e3:.3f}'
+                if latencies else 'n/a',
+            }
+            status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+            array = DiagnosticArray()
+            array.header.stamp = self.get_clock().now().to_msg()
+            array.status = [status]
+        self._diagnostics_pub.publish(array)
 
     # -- reset service -------------------------------------------------------------------
     def _on_reset_fault(self, request, response):

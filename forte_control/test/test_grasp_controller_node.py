@@ -358,3 +358,26 @@ def test_gripper_command_action():
                         'wheel on the package index); the GripperCommand server is only '
                         'created where it is')
 
+
+
+def test_diagnostics_report_state_and_fault(harness):
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    received = []
+    harness.client_node.create_subscription(DiagnosticArray, '/diagnostics', received.append,
+                                            RELIABLE10)
+    assert wait_for(lambda: received, 5.0)
+    status = received[-1].status[0]
+    assert 'grasp_controller' in status.name and status.level == DiagnosticStatus.OK
+    values = {item.key: item.value for item in status.values}
+    assert values['state'] == 'IDLE' and float(values['perception_age_s']) < 1.0
+    harness.controller.set_parameters([Parameter('lift_distance', value=0.02)])
+    harness.send()
+    assert wait_for(lambda: harness.controller._machine.state == GraspState.LIFTING)
+    harness.world.publish_joints = False
+    assert wait_for(lambda: harness.controller._machine.state == GraspState.FAULT, 5.0)
+    received.clear()
+    assert wait_for(lambda: received, 5.0)
+    status = received[-1].status[0]
+    assert status.level == DiagnosticStatus.ERROR
+    values = {item.key: item.value for item in status.values}
+    assert int(values['fault_flags']) == FaultFlag.STALE_JOINT_STATE
