@@ -173,6 +173,10 @@ class GraspControllerNode(Node):
                                ParameterDescriptor(
                                    description='joints whose mean position is the servo angle',
                                    type=ParameterType.PARAMETER_STRING_ARRAY, read_only=True))
+        self.declare_parameter('use_receive_time', False, ParameterDescriptor(
+            description='judge data freshness by receive time instead of header stamps (for '
+                        'replays of recorded stamps without a /clock); read only',
+            read_only=True))
         self.declare_parameter('dry_run', False, ParameterDescriptor(
             description='compute everything but publish zero arm velocity and no servo '
                         'commands (bag replay); refused while a grasp is active'))
@@ -185,6 +189,7 @@ class GraspControllerNode(Node):
         self._joint_names = list(self.get_parameter('joint_names').value)
         self._dry_run = bool(self.get_parameter('dry_run').value)
         self._step_on_perception = bool(self.get_parameter('step_on_perception').value)
+        self._use_receive_time = bool(self.get_parameter('use_receive_time').value)
         self._last_outputs: ControlOutputs | None = None
         self._last_state_published: tuple | None = None
         self._was_active = False
@@ -288,8 +293,10 @@ class GraspControllerNode(Node):
             if not msg.data_valid:
                 self.counters['tactile_invalid'] += 1
             self._slip_pending = self._slip_pending or bool(msg.slip)
+            stamp = self._now() if self._use_receive_time \
+                else stamp_to_seconds(msg.header.stamp)
             self._perception = PerceptionInput(
-                stamp=stamp_to_seconds(msg.header.stamp), force=float(msg.force),
+                stamp=stamp, force=float(msg.force),
                 force_valid=bool(msg.force_valid),
                 contact=(bool(msg.contact[0]), bool(msg.contact[1])),
                 slip=self._slip_pending, slip_active=bool(msg.slip_active),
@@ -310,7 +317,9 @@ class GraspControllerNode(Node):
             self.counters['joint_states_without_joints'] += 1
             return
         with self._lock:
-            self._joint = JointInput(stamp=stamp_to_seconds(msg.header.stamp),
+            stamp = self._now() if self._use_receive_time \
+                else stamp_to_seconds(msg.header.stamp)
+            self._joint = JointInput(stamp=stamp,
                                      theta=float(sum(positions) / len(positions)))
 
     def _inputs(self) -> ControlInputs:

@@ -13,6 +13,7 @@ import time
 
 import pytest
 import rclpy
+import rclpy.duration
 from geometry_msgs.msg import TwistStamped
 from rclpy.action import ActionClient
 from rclpy.executors import MultiThreadedExecutor
@@ -66,6 +67,7 @@ class FakeWorld(Node):
         self.arm_log: list[tuple[float, TwistStamped]] = []
         self.states: list[GraspStateMsg] = []
         self.sample_index = 0
+        self.stamp_offset = 0.0        # shift of the header stamps [s] (recorded data)
         self.tactile_pub = self.create_publisher(TactileState, 'tactile/state', RELIABLE50)
         self.joint_pub = self.create_publisher(JointState, 'joint_states', RELIABLE10)
         self.create_subscription(ServoCommand, 'gripper/command', self.on_servo, RELIABLE10)
@@ -98,7 +100,8 @@ class FakeWorld(Node):
             self.lift += self.arm_velocity * dt
             squeeze = self.contact_angle - self.theta
             in_contact = self.object_present and squeeze > 0.0
-            stamp = self.get_clock().now().to_msg()
+            stamp = (self.get_clock().now()
+                     - rclpy.duration.Duration(seconds=self.stamp_offset)).to_msg()
             self.sample_index += 20
             if self.publish_perception:
                 msg = TactileState()
@@ -381,3 +384,23 @@ def test_diagnostics_report_state_and_fault(harness):
     assert status.level == DiagnosticStatus.ERROR
     values = {item.key: item.value for item in status.values}
     assert int(values['fault_flags']) == FaultFlag.STALE_JOINT_STATE
+
+
+@pytest.mark.parametrize('harness', [{'use_receive_time': True}], indirect=True)
+def test_recorded_stamps_with_receive_time(harness):
+    """Replayed data carry old stamps: by header stamp they are stale, by receive time not."""
+    harness.world.stamp_offset = 30.0
+    time.sleep(0.3)
+    handle = harness.send()
+    assert handle.accepted
+    assert harness.result(handle).result.outcome == Outcome.LIFTED
+
+
+def test_recorded_stamps_are_stale_by_default(harness):
+    harness.world.stamp_offset = 30.0
+    time.sleep(0.3)
+    handle = harness.send()
+    if handle.accepted:
+        result = harness.result(handle).result
+        assert result.outcome == Outcome.FAULT and 'STALE' in result.message
+    assert harness.world.servo_log == []
