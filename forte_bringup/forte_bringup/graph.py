@@ -119,8 +119,8 @@ GRAPHS: dict[str, GraphSpec] = {
         'grasp control',
         'sim.yaml',
         (
-            NodeSpec('forte_driver', 'sim_node', 'sim',
-                     argument_parameters=(('object_name', 'object'),)),
+            NodeSpec('forte_driver', 'sim_node', 'sim', lifecycle=True,
+                     argument_parameters=(('object', 'object'), ('seed', 'seed'))),
             PERCEPTION,
             CONTROL,
         ),
@@ -128,6 +128,8 @@ GRAPHS: dict[str, GraphSpec] = {
             *COMMON_ARGUMENTS,
             Argument('object', '', 'object of the grasp scene, e.g. raspberry, soda_can '
                      '(empty: the YAML value)'),
+            Argument('seed', '', 'seed of the scene (placement, material spread, noise; '
+                     'empty: the YAML value)'),
         ),
     ),
     'replay': GraphSpec(
