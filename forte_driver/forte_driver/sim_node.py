@@ -1,0 +1,399 @@
+"""Lifecycle node standing in for the FORTE hardware: a simulated scene (forte_driver.sim).
+
+Thin ROS shell over :func:`forte_driver.sim.make_scene`:
+
+* publishes ``tactile/frames`` (forte_msgs/TactileFrames, batches of ``batch_size`` raw
+  samples, sensor-data QoS or reliable with ``reliable:=true``), stamped with the sample
+  time of the first row (simulation start + sample index / 2 kHz);
+* publishes ``joint_states`` (sensor_msgs/JointState: forte_left_finger_joint,
+  forte_right_finger_joint; position [rad], velocity [rad/s], effort = servo current [A])
+  and ``sim/ground_truth`` (forte_msgs/SimGroundTruth) once per batch;
+* subscribes ``gripper/command`` (forte_msgs/ServoCommand) and ``arm/cmd_vel``
+  (geometry_msgs/TwistStamped, only ``twist.linear.z`` is used: the arm lifts vertically);
+  the arm stops when no velocity command arrived for ``cmd_vel_timeout`` simulated seconds;
+* optionally publishes ``/clock`` (rosgraph_msgs/Clock) so other nodes can run on the
+  simulation clock (``use_sim_time:=true``), required for ``real_time_factor`` != 1;
+* ``/diagnostics`` once per wall second.
+
+``real_time_factor``: 1 = real time, > 1 faster, 0 = as fast as possible. The scene is
+stepped in whole batches; in real time the node produces, at every timer tick, the batches
+whose simulated time has come (catching up after a late tick, up to 0.5 s; a larger lag
+is dropped from the schedule and counted as an overrun, never invented).
+
+Configure builds the scene (unknown scene / object refused with a reason); activate starts
+the clock; ``autostart`` (default true, this is a simulator) does both at start-up.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import TwistStamped
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    SetParametersResult,
+)
+from rclpy.executors import ExternalShutdownException
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.qos import (
+    HistoryPolicy,
+    QoSProfile,
+    ReliabilityPolicy,
+    qos_profile_sensor_data,
+)
+from rclpy.time import Time
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+
+from forte_driver.sim import (
+    CHANNEL_NAMES,
+    SAMPLE_PERIOD,
+    SCENE_NAMES,
+    Scene,
+    make_scene,
+)
+from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileFrames
+
+LEFT_JOINT = 'forte_left_finger_joint'
+RIGHT_JOINT = 'forte_right_finger_joint'
+MAX_CATCH_UP = 0.5          # largest simulated lag made up in one timer tick [s]
+FAST_BUDGET = 0.02          # wall time per production burst at real_time_factor 0 [s]
+FAST_BATCHES = 40           # at most this many batches per burst (< reliable queue depth)
+RELIABLE_FRAMES_DEPTH = 1000    # reliable frames queue: 10 s of batches for slow readers
+
+
+def _reliable(depth: int) -> QoSProfile:
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
+                      reliability=ReliabilityPolicy.RELIABLE)
+
+
+class SimNode(LifecycleNode):
+    """The simulated FORTE scene as a ROS 2 lifecycle node (see the module docstring)."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('forte_sim', **kwargs)
+        self._declare_parameters()
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._scene: Scene | None = None
+        self._frames_publisher = None
+        self._joint_publisher = None
+        self._truth_publisher = None
+        self._clock_publisher = None
+        self._timer = None
+        self._origin_ns = 0
+        self._anchor_wall = 0.0
+        self._anchor_samples = 0
+        self._servo_command = 0.0
+        self._max_current: float | None = None
+        self._profile_velocity: float | None = None
+        self._arm_velocity = 0.0
+        self._last_cmd_vel_sample = -10 ** 12
+        self._rejected_commands = 0
+        self._overruns = 0
+        self._batches = 0
+        self._diagnostics_publisher = self.create_publisher(
+            DiagnosticArray, '/diagnostics', _reliable(10))
+        self._diagnostics_timer = self.create_timer(1.0, self._publish_diagnostics)
+        self._rate_window = (time.monotonic(), 0)
+        self._achieved_factor = 0.0
+        self.create_subscription(ServoCommand, 'gripper/command', self._on_servo_command,
+                                 _reliable(10))
+        self.create_subscription(TwistStamped, 'arm/cmd_vel', self._on_cmd_vel, _reliable(10))
+        if self.get_parameter('autostart').value:
+            if self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
+                self.trigger_activate()
+
+    # ------------------------------------------------------------------ parameters
+    def _declare_parameters(self) -> None:
+        def describe(text: str, read_only: bool = True, floats=None, integers=None):
+            return ParameterDescriptor(description=text, read_only=read_only,
+                                       floating_point_range=floats or [],
+                                       integer_range=integers or [])
+
+        self.declare_parameter('scene', 'grasp', describe(
+            f'scene name, one of {", ".join(SCENE_NAMES)}'))
+        self.declare_parameter('object', 'apple', describe(
+            'object type (grasp scenes, see forte_driver.sim.OBJECTS) or indentor name '
+            '(calibration scene)'))
+        self.declare_parameter('seed', 0, describe(
+            'seed of every random draw of the scene', integers=[
+                IntegerRange(from_value=0, to_value=2 ** 31 - 1, step=1)]))
+        self.declare_parameter('trial', 0, describe(
+            'trial index reported in sim/ground_truth', integers=[
+                IntegerRange(from_value=0, to_value=2 ** 31 - 1, step=1)]))
+        self.declare_parameter('real_time_factor', 1.0, describe(
+            'simulated seconds per wall second; 0 = as fast as possible', read_only=False,
+            floats=[FloatingPointRange(from_value=0.0, to_value=1000.0, step=0.0)]))
+        self.declare_parameter('publish_clock', False, describe(
+            'publish /clock (rosgraph_msgs/Clock) with the simulation time'))
+        self.declare_parameter('reliable', False, describe(
+            'reliable QoS on tactile/frames (for recording); default sensor data QoS'))
+        self.declare_parameter('batch_size', 20, describe(
+            'samples per TactileFrames message', integers=[
+                IntegerRange(from_value=1, to_value=2000, step=1)]))
+        self.declare_parameter('frame_id', 'forte_base_link', describe(
+            'frame_id of tactile/frames'))
+        self.declare_parameter('timer_period', 0.01, describe(
+            'wall period of the production timer in real time [s]',
+            floats=[FloatingPointRange(from_value=0.001, to_value=0.1, step=0.0)]))
+        self.declare_parameter('cmd_vel_timeout', 0.5, describe(
+            'the arm stops when no arm/cmd_vel arrived for this long (simulated) [s]',
+            read_only=False,
+            floats=[FloatingPointRange(from_value=0.01, to_value=60.0, step=0.0)]))
+        self.declare_parameter('autostart', True, describe(
+            'configure and activate at start-up without a lifecycle manager'))
+
+    def _on_set_parameters(self, parameters) -> SetParametersResult:
+        for parameter in parameters:
+            if parameter.name in ('real_time_factor', 'cmd_vel_timeout'):
+                value = parameter.value
+                if not isinstance(value, float) or not math.isfinite(value):
+                    return SetParametersResult(successful=False,
+                                               reason=f'{parameter.name} must be a finite float')
+                if parameter.name == 'real_time_factor' and value < 0.0:
+                    return SetParametersResult(successful=False,
+                                               reason='real_time_factor must be >= 0')
+                if parameter.name == 'cmd_vel_timeout' and value <= 0.0:
+                    return SetParametersResult(successful=False,
+                                               reason='cmd_vel_timeout must be > 0')
+            if parameter.name == 'real_time_factor' and self._timer is not None:
+                # re-anchor the schedule so the new factor applies from now on
+                self._anchor_wall = time.monotonic()
+                self._anchor_samples = self._scene.sample_index if self._scene else 0
+                self._restart_timer(float(parameter.value))
+        return SetParametersResult(successful=True)
+
+    # ------------------------------------------------------------------ lifecycle
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        scene_name = self.get_parameter('scene').value
+        object_name = self.get_parameter('object').value
+        try:
+            if scene_name == 'calibration':
+                self._scene = make_scene(scene_name, seed=self.get_parameter('seed').value,
+                                         indentor=object_name,
+                                         trial=self.get_parameter('trial').value)
+            else:
+                self._scene = make_scene(scene_name, object_name=object_name,
+                                         seed=self.get_parameter('seed').value,
+                                         trial=self.get_parameter('trial').value)
+        except ValueError as error:
+            self.get_logger().error(f'cannot build the scene: {error}')
+            return TransitionCallbackReturn.FAILURE
+        self._servo_command = self._scene.initial_angle
+        frames_qos = (_reliable(RELIABLE_FRAMES_DEPTH) if self.get_parameter('reliable').value
+                      else qos_profile_sensor_data)
+        self._frames_publisher = self.create_lifecycle_publisher(
+            TactileFrames, 'tactile/frames', frames_qos)
+        self._joint_publisher = self.create_lifecycle_publisher(
+            JointState, 'joint_states', _reliable(10))
+        self._truth_publisher = self.create_lifecycle_publisher(
+            SimGroundTruth, 'sim/ground_truth', _reliable(50))
+        if self.get_parameter('publish_clock').value:
+            self._clock_publisher = self.create_lifecycle_publisher(
+                Clock, '/clock', _reliable(10))
+        self.get_logger().info(
+            f'scene {scene_name!r} object {object_name!r} seed '
+            f'{self.get_parameter("seed").value}: theta_zeroF '
+            f'{self._scene.theta_zero_force:.3f} rad, start {self._scene.initial_angle:.3f} rad')
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        if self._origin_ns == 0:
+            self._origin_ns = self.get_clock().now().nanoseconds
+        self._anchor_wall = time.monotonic()
+        self._anchor_samples = self._scene.sample_index
+        self._restart_timer(float(self.get_parameter('real_time_factor').value))
+        return super().on_activate(state)
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._stop_timer()
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._stop_timer()
+        self._destroy_publishers()
+        self._scene = None
+        self._origin_ns = 0
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._stop_timer()
+        self._destroy_publishers()
+        return TransitionCallbackReturn.SUCCESS
+
+    def _destroy_publishers(self) -> None:
+        for name in ('_frames_publisher', '_joint_publisher', '_truth_publisher',
+                     '_clock_publisher'):
+            publisher = getattr(self, name)
+            if publisher is not None:
+                self.destroy_lifecycle_publisher(publisher)
+                setattr(self, name, None)
+
+    def _restart_timer(self, factor: float) -> None:
+        self._stop_timer()
+        period = 0.001 if factor == 0.0 else float(self.get_parameter('timer_period').value)
+        self._timer = self.create_timer(period, self._produce)
+
+    def _stop_timer(self) -> None:
+        if self._timer is not None:
+            self.destroy_timer(self._timer)
+            self._timer = None
+
+    # ------------------------------------------------------------------ commands
+    def _on_servo_command(self, message: ServoCommand) -> None:
+        values = (message.position, message.max_current, message.profile_velocity)
+        if not all(math.isfinite(value) for value in values):
+            self._reject('gripper/command with a non-finite value')
+            return
+        if message.max_current < 0.0 or message.profile_velocity < 0.0:
+            self._reject('gripper/command with a negative current limit or velocity')
+            return
+        self._servo_command = float(message.position)
+        self._max_current = float(message.max_current) or None
+        self._profile_velocity = float(message.profile_velocity) or None
+
+    def _on_cmd_vel(self, message: TwistStamped) -> None:
+        value = message.twist.linear.z
+        if not math.isfinite(value):
+            self._reject('arm/cmd_vel with a non-finite linear.z')
+            return
+        self._arm_velocity = float(value)
+        if self._scene is not None:
+            self._last_cmd_vel_sample = self._scene.sample_index
+
+    def _reject(self, reason: str) -> None:
+        self._rejected_commands += 1
+        self.get_logger().warning(f'refused {reason} ({self._rejected_commands} so far)',
+                                  throttle_duration_sec=1.0)
+
+    # ------------------------------------------------------------------ production
+    def _produce(self) -> None:
+        if self._scene is None or self._frames_publisher is None:
+            return
+        batch = int(self.get_parameter('batch_size').value)
+        factor = float(self.get_parameter('real_time_factor').value)
+        if factor == 0.0:
+            # as fast as possible, but return to the executor every FAST_BUDGET seconds so
+            # commands and parameter changes are handled between bursts
+            deadline = time.monotonic() + FAST_BUDGET
+            for _ in range(FAST_BATCHES):
+                self._step_batch(batch)
+                if time.monotonic() > deadline:
+                    break
+            return
+        elapsed = time.monotonic() - self._anchor_wall
+        due = self._anchor_samples + int(elapsed * factor / SAMPLE_PERIOD)
+        lag = due - self._scene.sample_index
+        limit = int(MAX_CATCH_UP / SAMPLE_PERIOD)
+        if lag > limit:
+            # too far behind (e.g. the process was suspended): skip ahead in the schedule
+            self._overruns += 1
+            self._anchor_samples += lag - limit
+        while due - self._scene.sample_index >= batch:
+            self._step_batch(batch)
+
+    def _step_batch(self, batch: int) -> None:
+        scene = self._scene
+        first = scene.sample_index
+        timeout = float(self.get_parameter('cmd_vel_timeout').value)
+        velocity = self._arm_velocity
+        if (first - self._last_cmd_vel_sample) * SAMPLE_PERIOD > timeout:
+            velocity = 0.0
+        frames, truth = scene.step(batch, self._servo_command, velocity,
+                                   max_current=self._max_current,
+                                   profile_velocity=self._profile_velocity)
+        self._batches += 1
+        first_stamp = Time(nanoseconds=self._origin_ns + round(first * SAMPLE_PERIOD * 1e9))
+        last_stamp = Time(nanoseconds=self._origin_ns
+                          + round((first + batch - 1) * SAMPLE_PERIOD * 1e9)).to_msg()
+        message = TactileFrames()
+        message.header.stamp = first_stamp.to_msg()
+        message.header.frame_id = self.get_parameter('frame_id').value
+        message.first_sequence = first
+        message.device_time_us = round(first * SAMPLE_PERIOD * 1e6)
+        message.sample_period = SAMPLE_PERIOD
+        message.channel_names = list(CHANNEL_NAMES)
+        message.sample_count = batch
+        message.data = frames.ravel()
+        self._frames_publisher.publish(message)
+        joints = JointState()
+        joints.header.stamp = last_stamp
+        joints.name = [LEFT_JOINT, RIGHT_JOINT]
+        position = scene.joint_position
+        joints.position = [position, position]
+        joints.velocity = [scene.joint_velocity, scene.joint_velocity]
+        joints.effort = list(scene.joint_effort)
+        self._joint_publisher.publish(joints)
+        latest = truth.latest()
+        ground = SimGroundTruth()
+        ground.header.stamp = last_stamp
+        ground.header.frame_id = self.get_parameter('frame_id').value
+        ground.scene = scene.name
+        ground.object_name = self.get_parameter('object').value
+        ground.trial = scene.trial
+        ground.finger_force = list(latest['finger_force'])
+        ground.load_cell_force = latest['load_cell_force']
+        ground.slip_type = latest['slip_type']
+        ground.slip_onsets = latest['slip_onsets']
+        ground.object_state = latest['object_state']
+        ground.lift_height = latest['lift_height']
+        ground.object_height = latest['object_height']
+        ground.object_slip = latest['object_slip']
+        ground.object_rotation = latest['object_rotation']
+        self._truth_publisher.publish(ground)
+        if self._clock_publisher is not None:
+            clock = Clock()
+            clock.clock = Time(nanoseconds=self._origin_ns
+                               + round(scene.sample_index * SAMPLE_PERIOD * 1e9)).to_msg()
+            self._clock_publisher.publish(clock)
+
+    # ------------------------------------------------------------------ diagnostics
+    def _publish_diagnostics(self) -> None:
+        now = time.monotonic()
+        samples = self._scene.sample_index if self._scene is not None else 0
+        started, count = self._rate_window
+        if now > started:
+            self._achieved_factor = (samples - count) * SAMPLE_PERIOD / (now - started)
+        self._rate_window = (now, samples)
+        status = DiagnosticStatus()
+        status.name = f'{self.get_name()}: simulated scene'
+        status.hardware_id = 'forte_sim'
+        status.level = DiagnosticStatus.OK
+        status.message = 'running' if self._timer is not None else 'inactive'
+        values = {
+            'scene': self.get_parameter('scene').value,
+            'object': self.get_parameter('object').value,
+            'simulated_seconds': f'{samples * SAMPLE_PERIOD:.3f}',
+            'achieved_real_time_factor': f'{self._achieved_factor:.2f}',
+            'requested_real_time_factor': f'{self.get_parameter("real_time_factor").value}',
+            'batches': str(self._batches),
+            'schedule_overruns': str(self._overruns),
+            'rejected_commands': str(self._rejected_commands),
+            'clamped_commands': str(self._scene.clamped_commands if self._scene else 0),
+        }
+        status.values = [KeyValue(key=key, value=value) for key, value in values.items()]
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        array.status = [status]
+        self._diagnostics_publisher.publish(array)
+
+
+def main(args=None) -> None:
+    """Run the simulated scene node (autostart: configured and active at start-up)."""
+    rclpy.init(args=args)
+    node = SimNode()
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()

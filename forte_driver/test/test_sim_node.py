@@ -1,0 +1,184 @@
+"""The simulated scene node with real rclpy: frames, joint states, ground truth, commands."""
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+import rclpy
+from geometry_msgs.msg import TwistStamped
+from rcl_interfaces.msg import ParameterType
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+
+from forte_driver.sim_node import LEFT_JOINT, RIGHT_JOINT, SimNode
+from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileFrames
+
+
+class Harness:
+    """Sim node + a listener/commander node, spun by one executor in a thread."""
+
+    def __init__(self, **parameters) -> None:
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        overrides = [Parameter(name, value=value) for name, value in parameters.items()]
+        self.node = SimNode(context=self.context, parameter_overrides=overrides)
+        self.peer = Node('sim_peer', context=self.context)
+        reliable = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        self.frames: list[tuple[float, TactileFrames]] = []
+        self.joints: list[JointState] = []
+        self.truth: list[SimGroundTruth] = []
+        self.clock: list[Clock] = []
+        self.peer.create_subscription(
+            TactileFrames, 'tactile/frames',
+            lambda message: self.frames.append((time.monotonic(), message)), reliable)
+        self.peer.create_subscription(JointState, 'joint_states', self.joints.append, reliable)
+        self.peer.create_subscription(SimGroundTruth, 'sim/ground_truth', self.truth.append,
+                                      reliable)
+        self.peer.create_subscription(Clock, '/clock', self.clock.append, reliable)
+        self.servo = self.peer.create_publisher(ServoCommand, 'gripper/command', 10)
+        self.arm = self.peer.create_publisher(TwistStamped, 'arm/cmd_vel', 10)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.executor.add_node(self.peer)
+        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread.start()
+
+    def wait(self, condition, timeout: float = 15.0) -> bool:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if condition():
+                return True
+            time.sleep(0.02)
+        return condition()
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.thread.join(timeout=5)
+        self.node.destroy_node()
+        self.peer.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+
+@pytest.fixture
+def harness_factory():
+    made = []
+
+    def make(**parameters):
+        harness = Harness(**parameters)
+        made.append(harness)
+        return harness
+
+    yield make
+    for harness in made:
+        harness.close()
+
+
+def test_real_time_frames_have_the_contract_layout_rate_and_sequence(harness_factory):
+    harness = harness_factory(scene='grasp', object='apple', seed=1, reliable=True)
+    assert harness.wait(lambda: len(harness.frames) >= 5)
+    start_wall, start = harness.frames[-1]
+    time.sleep(1.5)
+    end_wall, end = harness.frames[-1]
+    samples = end.first_sequence - start.first_sequence
+    rate = samples / (end_wall - start_wall)
+    assert 1400 < rate < 2600                       # 2 kHz of samples in real time
+    messages = [message for _, message in harness.frames]
+    sequences = np.array([message.first_sequence for message in messages])
+    np.testing.assert_array_equal(np.diff(sequences), 20)
+    first = messages[0]
+    assert first.sample_count == 20 and first.sample_period == pytest.approx(0.0005)
+    assert list(first.channel_names) == ['left_distal', 'left_middle', 'left_root',
+                                         'right_distal', 'right_middle', 'right_root']
+    assert len(first.data) == 120 and first.header.frame_id == 'forte_base_link'
+    data = np.asarray(first.data).reshape(20, 6)
+    assert np.all(np.abs(data) < 1.0)
+    np.testing.assert_allclose(data * 1024, np.rint(data * 1024))   # 11-bit quantised
+    # stamps: sample time of the first row, 10 ms apart
+    stamps = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in messages])
+    np.testing.assert_allclose(np.diff(stamps), 0.01, atol=1e-6)
+    assert first.device_time_us == first.first_sequence * 500
+
+
+def test_servo_command_moves_the_joint_and_the_arm_lifts(harness_factory):
+    harness = harness_factory(scene='grasp', object='jam_jar', seed=2, real_time_factor=4.0)
+    assert harness.wait(lambda: len(harness.joints) >= 3)
+    start = harness.joints[-1].position[0]
+    assert list(harness.joints[-1].name) == [LEFT_JOINT, RIGHT_JOINT]
+    target = 0.30
+    deadline = time.monotonic() + 10.0
+
+    def closed():
+        harness.servo.publish(ServoCommand(position=target))
+        return harness.joints[-1].position[0] < start - 0.1
+
+    assert harness.wait(closed, timeout=10.0)
+    # the servo stalls at the jar, which is wider than the commanded gap
+    assert harness.wait(lambda: harness.truth[-1].finger_force[0] > 1.0, timeout=10.0)
+    assert harness.joints[-1].effort[0] > 0.05
+    lift = TwistStamped()
+    lift.twist.linear.z = 0.01
+
+    def lifted():
+        harness.arm.publish(lift)
+        return harness.truth[-1].lift_height > 0.01
+
+    assert harness.wait(lifted, timeout=max(deadline - time.monotonic(), 5.0))
+    truth = harness.truth[-1]
+    assert truth.scene == 'grasp' and truth.object_name == 'jam_jar' and truth.trial == 0
+    assert truth.object_height > 0.0
+    # without commands the arm stops after cmd_vel_timeout (0.5 s simulated)
+    time.sleep(1.0)
+    stopped = harness.truth[-1].lift_height
+    time.sleep(0.5)
+    assert harness.truth[-1].lift_height == pytest.approx(stopped, abs=1e-6)
+
+
+def test_as_fast_as_possible_with_clock(harness_factory):
+    harness = harness_factory(scene='calibration', object='sphere', seed=3,
+                              real_time_factor=0.0, publish_clock=True, reliable=True)
+    started = time.monotonic()
+    assert harness.wait(lambda: len(harness.clock) >= 2)
+    time.sleep(1.0)
+    wall = time.monotonic() - started
+    clocks = [c.clock.sec + 1e-9 * c.clock.nanosec for c in harness.clock]
+    assert np.all(np.diff(clocks) > 0)
+    assert clocks[-1] - clocks[0] > 0.2             # the simulation clock runs
+    del wall                                        # speed is measured in bench_sim.py
+    truth = harness.truth[-1]
+    assert truth.scene == 'calibration' and truth.object_state == 0
+    sequences = np.array([m.first_sequence for _, m in harness.frames])
+    np.testing.assert_array_equal(np.diff(sequences), 20)
+
+
+def test_bad_parameters_and_commands_are_refused(harness_factory):
+    harness = harness_factory(scene='grasp', object='apple', seed=4)
+    result = harness.node.set_parameters([Parameter('real_time_factor', value=-1.0)])[0]
+    assert not result.successful
+    result = harness.node.set_parameters([Parameter('real_time_factor', value=2.0)])[0]
+    assert result.successful
+    result = harness.node.set_parameters([Parameter('object', value='soda_can')])[0]
+    assert not result.successful                    # read-only
+    descriptor = harness.node.describe_parameter('real_time_factor')
+    assert descriptor.type == ParameterType.PARAMETER_DOUBLE
+    assert harness.wait(lambda: len(harness.joints) >= 2)
+    harness.servo.publish(ServoCommand(position=float('nan')))
+    assert harness.wait(lambda: harness.node._rejected_commands == 1)
+    assert harness.joints[-1].position[0] == pytest.approx(harness.node._scene.initial_angle)
+
+
+def test_unknown_object_fails_configure():
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        node = SimNode(context=context,
+                       parameter_overrides=[Parameter('object', value='unobtainium')])
+        assert node._scene is None and node._timer is None
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
