@@ -145,77 +145,18 @@ def run_benchmark(tasks: Sequence[Task], jobs: int,
 # --- force estimation ----------------------------------------------------------------------
 def calibration_dataset(trials_per_indentor: int, hold_seconds: float, seed: int,
                         indentors: Sequence[str] | None = None) -> dict[str, np.ndarray]:
-    """The calibration rig scene in the dataset format of docs/contracts.md.
+    """The simulated calibration rig in the dataset format of docs/contracts.md.
 
-    Per trial: 1 s quiet (tare), close over 0.5 s to a random angle drawn uniformly between
-    fully closed and just touching (the paper's protocol), hold ``hold_seconds``.
+    Thin wrapper of :func:`forte_driver.sim.dataset.generate_calibration_dataset` (the
+    paper's protocol: quiet tare period, close to an angle drawn uniformly between just
+    touching and fully closed, hold, release).
     """
-    from forte_driver.sim import INDENTORS, SAMPLE_RATE, make_scene
+    from forte_driver.sim.dataset import CalibrationProtocol, generate_calibration_dataset
 
-    names = list(indentors or INDENTORS)
-    rng = np.random.default_rng(seed)
-    frames, force, trial_ids, indentor_ids = [], [], [], []
-    tare = int(SAMPLE_RATE)
-    chunk = 200
-    trial_id = 0
-    for indentor_index, name in enumerate(names):
-        for trial in range(trials_per_indentor):
-            scene = make_scene('calibration', indentor=name, seed=seed + 7919 * trial_id,
-                               trial=trial)
-            start = scene.initial_angle
-            target = float(rng.uniform(0.0, scene.theta_zero_force))
-            parts_f, parts_y = [], []
-            total = tare + int(0.5 * SAMPLE_RATE) + int(hold_seconds * SAMPLE_RATE)
-            done = 0
-            while done < total:
-                t = max(0, done - tare) / SAMPLE_RATE
-                command = start if done < tare else start + (target - start) * min(t / 0.5, 1)
-                block, truth = scene.step(min(chunk, total - done), command, 0.0)
-                parts_f.append(block)
-                parts_y.append(truth.load_cell_force)
-                done += block.shape[0]
-            trial_frames = np.concatenate(parts_f)
-            frames.append(trial_frames)
-            force.append(np.concatenate(parts_y))
-            trial_ids.append(np.full(trial_frames.shape[0], trial_id, np.int32))
-            indentor_ids.append(np.full(trial_frames.shape[0], indentor_index, np.int32))
-            trial_id += 1
-    return {
-        'frames': np.concatenate(frames).astype(np.float32),
-        'force': np.concatenate(force).astype(np.float32),
-        'trial': np.concatenate(trial_ids),
-        'indentor': np.concatenate(indentor_ids),
-        'indentor_names': np.array(names),
-        'fs': np.float64(SAMPLE_RATE),
-        'tare_samples': np.int64(tare),
-    }
-
-
-def trial_features(dataset: dict[str, np.ndarray], stride: int) -> tuple[np.ndarray, ...]:
-    """Per the contract: tare each trial, median 11, 24 features at full rate, subsample.
-
-    Returns
-    -------
-    features : (m, 24), force : (m,), trial : (m,), indentor : (m,)
-    """
-    from forte_perception.force import force_features
-    from forte_perception.median import running_median
-
-    fs = float(dataset['fs'])
-    tare = int(dataset['tare_samples'])
-    out_x, out_y, out_t, out_i = [], [], [], []
-    for trial in np.unique(dataset['trial']):
-        rows = dataset['trial'] == trial
-        raw = dataset['frames'][rows].astype(np.float64)
-        tared = raw - raw[:tare].mean(axis=0)
-        features = force_features(running_median(tared, 11), fs)
-        keep = np.arange(tare, raw.shape[0], stride)  # after the quiet period
-        out_x.append(features[keep])
-        out_y.append(dataset['force'][rows][keep].astype(np.float64))
-        out_t.append(np.full(keep.size, trial))
-        out_i.append(dataset['indentor'][rows][keep])
-    return (np.concatenate(out_x), np.concatenate(out_y), np.concatenate(out_t),
-            np.concatenate(out_i))
+    protocol = CalibrationProtocol(trials_per_indentor=trials_per_indentor,
+                                   hold_seconds=hold_seconds,
+                                   release_seconds=min(2.0, hold_seconds / 4), seed=seed)
+    return generate_calibration_dataset(protocol, indentors)
 
 
 def force_cross_validation(dataset: dict[str, np.ndarray], folds: int = 10, stride: int = 100,
@@ -230,9 +171,14 @@ def force_cross_validation(dataset: dict[str, np.ndarray], folds: int = 10, stri
         ``{'with_history': {...}, 'without_history': {...}}``, each with ``rmse``, ``mae``
         [N], ``per_indentor`` RMSE [N], ``points`` and ``trials``.
     """
+    from forte_driver.sim.dataset import trial_features
     from forte_perception.force import ForceModel
 
-    x, y, trial, indentor = trial_features(dataset, stride)
+    x, y, trial = trial_features(dataset, stride)
+    starts = np.concatenate(([0], np.flatnonzero(np.diff(dataset['trial'])) + 1))
+    indentor_of = dict(zip(dataset['trial'][starts].tolist(),
+                           dataset['indentor'][starts].tolist(), strict=True))
+    indentor = np.array([indentor_of[int(t)] for t in trial])
     trials = np.unique(trial)
     rng = np.random.default_rng(seed)
     shuffled = rng.permutation(trials)

@@ -102,7 +102,8 @@ def test_force_cross_validation_on_the_calibration_rig():
     assert dataset['force'].shape == (dataset['frames'].shape[0],)
     # the quiet tare period has no load on the load cell, the hold has some
     first = dataset['trial'] == trials[0]
-    assert np.nanmax(np.abs(dataset['force'][first][:1000])) < 0.05
+    assert np.nanmax(np.abs(dataset['force'][first][:int(dataset['tare_samples'])])) < 0.05
+    assert np.nanmax(dataset['force']) > 0.5
     results = force_cross_validation(dataset, folds=10, stride=50)
     for key in ('with_history', 'without_history'):
         entry = results[key]
