@@ -47,6 +47,9 @@ from .noise import SensorNoise
 TICK_SAMPLES = 10
 TICK = TICK_SAMPLES * SAMPLE_PERIOD
 
+_TICK_INDEX = np.arange(1 << 16) // TICK_SAMPLES
+_TICK_FRACTION = (np.arange(1 << 16) % TICK_SAMPLES) / TICK_SAMPLES
+
 # slip_type constants (same values as forte_msgs/SimGroundTruth)
 SLIP_NONE = 0
 SLIP_INCIPIENT = 1
@@ -270,7 +273,7 @@ class Scene:
             1.0 + mass / model.bending_mass)
         self._resonator_b, self._resonator_a = resonator_coefficients(
             self.vibration_frequency, model.vibration_damping)
-        self._resonator_state = np.zeros((2, 2))
+        self._resonator_state = np.zeros((2, 2))      # (filter order, finger)
         # --- mechanical state (tick rate)
         self._theta = self.initial_angle
         self._command = self.initial_angle
@@ -835,39 +838,35 @@ class Scene:
                     events: list[tuple[int, int, float]],
                     jumps_before: tuple[float, float]) -> dict[str, np.ndarray]:
         count = ticks * TICK_SAMPLES
-        samples = np.arange(first_sample, first_sample + count, dtype=np.float64)
-        knots = first_sample + TICK_SAMPLES * np.arange(ticks + 1, dtype=np.float64)
-
-        def series(column: int) -> np.ndarray:
-            return np.interp(samples, knots, records[:, column])
-
-        theta = series(0)
-        deflection = (series(1), series(2))
-        force = np.column_stack((series(3), series(4)))
+        # linear interpolation of every tick quantity between tick boundaries: the value
+        # of a sample depends only on its two boundary records and its place in the tick
+        tick = _TICK_INDEX[:count] if count <= len(_TICK_INDEX) else (
+            np.arange(count) // TICK_SAMPLES)
+        fraction = _TICK_FRACTION[:count] if count <= len(_TICK_FRACTION) else (
+            (np.arange(count) % TICK_SAMPLES) / TICK_SAMPLES)
+        start = records[:-1][tick]
+        fine = start + (records[1:][tick] - start) * fraction[:, None]
         model = self.model
-        raw = np.empty((count, 6))
+        pressure = pressure_response(model, fine[:, 1:3])                 # (n, 2)
+        raw = np.repeat(pressure, 3, axis=1) * self._normal_gain
+        raw += np.repeat(fine[:, 7:9], 3, axis=1) * self._temperature_gain
         if self.dynamics:
-            jumps = [self._jump_series(samples, finger, events, jumps_before[finger])
-                     for finger in (0, 1)]
-        for finger in (0, 1):
-            pressure = pressure_response(model, deflection[finger])
-            columns = slice(3 * finger, 3 * finger + 3)
-            raw[:, columns] = pressure[:, None] * self._normal_gain[columns]
-            temperature = series(7 + finger)
-            raw[:, columns] += temperature[:, None] * self._temperature_gain[columns]
-            if self.dynamics:
-                shear = series(5 + finger) + jumps[finger]
-                # a release jolts the object, which shakes the other finger too
-                drive = shear + _RELEASE_COUPLING * jumps[1 - finger]
-                dynamic, self._resonator_state[finger] = lfilter(
-                    self._resonator_b, self._resonator_a, drive,
-                    zi=self._resonator_state[finger])
-                raw[:, columns] += (shear[:, None] * self._shear_gain[columns]
-                                    + (dynamic - drive)[:, None]
-                                    * self._vibration_gain[columns])
+            samples = np.arange(first_sample, first_sample + count)
+            jumps = np.column_stack([
+                self._jump_series(samples, finger, events, jumps_before[finger])
+                for finger in (0, 1)])
+            shear = fine[:, 5:7] + jumps
+            # a release jolts the object, which shakes the other finger too
+            drive = shear + _RELEASE_COUPLING * jumps[:, ::-1]
+            dynamic, self._resonator_state = lfilter(
+                self._resonator_b, self._resonator_a, drive, axis=0,
+                zi=self._resonator_state)
+            raw += (np.repeat(shear, 3, axis=1) * self._shear_gain
+                    + np.repeat(dynamic - drive, 3, axis=1) * self._vibration_gain)
         raw += self._draws.offsets
         raw += self._noise.read(first_sample, first_sample + count)
         frames = quantise(raw)
+        force = fine[:, 3:5]
         if self.indentor is not None:
             load_cell = self._load_cell_noise(force.mean(axis=1), first_sample)
         else:
@@ -875,17 +874,17 @@ class Scene:
         if self.object is None and self.indentor is None:
             state = np.full(count, OBJECT_NONE, dtype=np.uint8)
         else:
-            state = np.repeat(object_states, TICK_SAMPLES)
+            state = object_states[tick]
         return {
             'frames': frames,
-            'theta': theta,
+            'theta': fine[:, 0],
             'finger_force': force,
             'load_cell': load_cell,
-            'lift': series(9),
-            'height': series(10),
-            'slip': series(11),
-            'rotation': series(12),
-            'slip_type': np.repeat(slip_types, TICK_SAMPLES),
+            'lift': fine[:, 9],
+            'height': fine[:, 10],
+            'slip': fine[:, 11],
+            'rotation': fine[:, 12],
+            'slip_type': slip_types[tick],
             'object_state': state,
         }
 
