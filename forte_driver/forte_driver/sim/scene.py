@@ -369,6 +369,42 @@ class Scene:
         """True for the calibration rig."""
         return self.indentor is not None
 
+    def stable_grasp_angle(self) -> float:
+        """Servo angle theta_grasp from which a centred object is held by friction [rad].
+
+        The largest angle at which the two fingers' static friction capacity (just after
+        closing, before relaxation) carries the object's weight; NaN without an object.
+        """
+        obj = self.object
+        if obj is None:
+            return math.nan
+        weight = obj.mass * STANDARD_GRAVITY
+        mu = obj.mu_static * self._draws.mu_scale * obj.wrap_gain
+        low, high = 0.0, self.theta_zero_force
+        for _ in range(40):
+            middle = 0.5 * (low + high)
+            overlap = self._width0_mm - self.model.gap_per_radian * 1000.0 * middle
+            _, force, _ = solve_finger(self.model, 0.5 * overlap, 0.0, 0.0, self._scale,
+                                       self._object_stiffness, 0.5 * overlap)
+            if 2.0 * mu * force >= weight:
+                low = middle
+            else:
+                high = middle
+        return low
+
+    @property
+    def slip_test_angle(self) -> float:
+        """Servo angle for a slip characterisation trial [rad] (paper Sec. IV-B).
+
+        Drawn from the seed uniformly in [theta_grasp, theta_zeroF): less grip than needed,
+        so the object slips when lifted. NaN without an object.
+        """
+        if self.object is None:
+            return math.nan
+        grasp = self.stable_grasp_angle()
+        draw = float(np.random.default_rng((self.seed, 0x511B)).uniform(0.0, 1.0))
+        return grasp + draw * (self.theta_zero_force - grasp)
+
     @property
     def sensor_offsets(self) -> np.ndarray:
         """Zero offsets of the 6 transducers in this scene (untared readings) [normalised]."""

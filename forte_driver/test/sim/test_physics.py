@@ -259,3 +259,14 @@ def test_sensor_is_quantised_noisy_untared_with_occasional_impulses():
     assert 3 <= impulses.sum() <= 200                  # ~0.2 per second per channel
     filtered = medfilt(frames, (11, 1))
     assert np.abs(filtered - medfilt(filtered, (11, 1))).max() < 0.015
+
+
+@pytest.mark.parametrize(('name', 'paper_grasp', 'paper_zero'), [('apple', 0.527, 0.552),
+                                                                 ('jam_jar', 0.460, 0.476)])
+def test_slip_characterisation_angles_match_the_paper(name, paper_grasp, paper_zero):
+    scene = make_scene('slip_characterization', object_name=name, seed=0)
+    assert scene.theta_zero_force == pytest.approx(paper_zero, abs=0.002)
+    assert scene.stable_grasp_angle() == pytest.approx(paper_grasp, abs=0.008)
+    assert scene.stable_grasp_angle() <= scene.slip_test_angle < scene.theta_zero_force
+    with pytest.raises(ValueError, match='slip_characterization'):
+        make_scene('slip_characterization', object_name='soda_can')
