@@ -250,3 +250,39 @@ def test_forte_bringup_command_stops_cleanly_on_sigint(tmp_path):
     assert 'stopped: ' in output
     for name in ('sim', 'perception', 'grasp_controller'):
         assert (tmp_path / 'logs' / f'{name}.log').is_file()
+
+
+@pytest.mark.slow
+def test_replay_graph_drives_perception_from_a_bag(watcher, tmp_path):
+    need_graph('replay')
+    import numpy as np
+    from rclpy.serialization import serialize_message
+
+    from forte_bringup.bags import BagWriter, TopicSpec
+    from forte_msgs.msg import TactileFrames
+
+    bag = tmp_path / 'bag'
+    rng = np.random.default_rng(0)
+    with BagWriter(bag) as writer:
+        writer.add_topic(TopicSpec('tactile/frames', 'forte_msgs/msg/TactileFrames'))
+        for index in range(600):  # 6 s of quiet sensor at 2 kHz
+            message = TactileFrames(sample_count=20, sample_period=0.0005,
+                                    first_sequence=20 * index)
+            message.header.stamp.sec = 1000 + index // 100
+            message.header.stamp.nanosec = (index % 100) * 10_000_000
+            message.header.frame_id = 'forte_base_link'
+            message.channel_names = ['left_distal', 'left_middle', 'left_root',
+                                     'right_distal', 'right_middle', 'right_root']
+            message.data = (0.05 + rng.normal(0.0, 0.001, 120)).tolist()
+            writer.write('tactile/frames', 1000 * 10**9 + index * 10**7,
+                         serialize_message(message))
+    bringup = Bringup('replay', {'bag': str(bag)}, log_dir=tmp_path / 'logs', echo=None)
+    bringup.start(timeout=60.0)
+    try:
+        assert wait_for(lambda: watcher.counts['tactile/state'] > 20, 30.0), watcher.counts
+        assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, 30.0)
+        bringup.check_children()
+    finally:
+        bringup.stop()
+    replay_log = (tmp_path / 'logs' / 'bag_replay.log').read_text()
+    assert 'replaying' in replay_log
