@@ -104,7 +104,7 @@ class SlipParams:
     alpha: float = 0.6
     threshold: float = 2.0
     eps: float = 1e-12
-    resync_interval: int = 250
+    resync_interval: int = 1000
     guard_db: float = 1e-7
     guard_variance: float = 1e-6
 
@@ -193,7 +193,8 @@ def _check_frames(frames: np.ndarray) -> np.ndarray:
     x = np.asarray(frames, dtype=np.float64)
     if x.ndim != 2 or x.shape[1] != N_CHANNELS:
         raise ValueError(f'frames must have shape (n, {N_CHANNELS}), got {x.shape}')
-    if not np.isfinite(x).all():
+    # fast test: the sum is finite unless an element is NaN/inf (or the sum overflows)
+    if not np.isfinite(np.add.reduce(x, axis=None)) and not np.isfinite(x).all():
         bad = np.argwhere(~np.isfinite(x))[0]
         raise NonFiniteInputError(
             f'non-finite input (NaN or inf) at row {bad[0]}, channel {bad[1]}; '
@@ -215,22 +216,51 @@ def _decide_terms(h: list[np.ndarray], params: SlipParams
     min_diff = h[1] - h[0]
     for i in range(2, v):
         min_diff = np.minimum(min_diff, h[i] - h[i - 1])
-    total = h[0].copy()
-    for i in range(1, v):
-        total = total + h[i]
-    mean = total / v
-    sq = (h[0] - mean) ** 2
-    for i in range(1, v):
-        sq = sq + (h[i] - mean) ** 2
-    variance = sq / v
-    channel_variance = np.where(min_diff > params.delta, variance, 0.0)
-    left = (channel_variance[0] + channel_variance[1] + channel_variance[2]) / 3.0
-    right = (channel_variance[3] + channel_variance[4] + channel_variance[5]) / 3.0
-    finger_raw = np.stack([left, right], axis=0)
-    gate = (left >= params.alpha) & (right >= params.alpha)
-    finger = np.where(gate, finger_raw, 0.0)
-    slip = np.maximum(finger[0], finger[1]) > params.threshold
-    return channel_variance, finger, slip, min_diff, finger_raw
+    return _decide_rest(h, min_diff, params)
+
+
+def _decide_rest(h: list[np.ndarray], min_diff: np.ndarray, params: SlipParams
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Variance, group average, gate and threshold given the smallest differences.
+
+    ``h``: V arrays (6, m) (or (6, ...)), ``min_diff`` (6, ...). The variance matters only
+    where some channel rises monotonically (rare in practice), so it is computed for those
+    updates only (same arithmetic per element, so the same bits).
+    """
+    v = len(h)
+    shape = min_diff.shape
+    md = min_diff.reshape(shape[0], -1)
+    m = md.shape[1]
+    rising = md > params.delta
+    cols = np.nonzero(rising.any(axis=0))[0]
+    channel_variance = np.zeros((N_CHANNELS, m))
+    finger = np.zeros((2, m))
+    finger_raw = np.zeros((2, m))
+    slip = np.zeros(m, bool)
+    if cols.size:
+        flat = [np.asarray(x).reshape(x.shape[0], -1) for x in h]
+        if cols.size * 4 > m:  # many: contiguous slices beat gathering
+            cols = np.arange(m)
+            hs = flat
+        else:
+            hs = [x[:, cols] for x in flat]
+        total = hs[0].copy()
+        for i in range(1, v):
+            total = total + hs[i]
+        mean = total / v
+        sq = (hs[0] - mean) ** 2
+        for i in range(1, v):
+            sq = sq + (hs[i] - mean) ** 2
+        cv = np.where(rising[:, cols], sq / v, 0.0)
+        left = (cv[0] + cv[1] + cv[2]) / 3.0
+        right = (cv[3] + cv[4] + cv[5]) / 3.0
+        gate = (left >= params.alpha) & (right >= params.alpha)
+        channel_variance[:, cols] = cv
+        finger_raw[:, cols] = np.stack([left, right], axis=0)
+        finger[:, cols] = np.where(gate, finger_raw[:, cols], 0.0)
+        slip[cols] = np.maximum(finger[0, cols], finger[1, cols]) > params.threshold
+    return (channel_variance.reshape(shape), finger.reshape((2,) + shape[1:]),
+            slip.reshape(shape[1:]), min_diff, finger_raw.reshape((2,) + shape[1:]))
 
 
 def decide_slip(history: np.ndarray, params: SlipParams
@@ -257,43 +287,74 @@ def decide_slip(history: np.ndarray, params: SlipParams
     return cv.T, fv.T, sl, md.T
 
 
+def _running_min(values: np.ndarray, width: int) -> np.ndarray:
+    """Minimum over each run of ``width`` consecutive columns, (r, c) -> (r, c - width + 1).
+
+    Doubling (sparse table): minima of runs of 1, 2, 4, ... columns, then two overlapping
+    runs cover ``width``. Exact (min does no arithmetic).
+    """
+    out_len = values.shape[1] - width + 1
+    span, cur = 1, values
+    while 2 * span <= width:
+        cur = np.minimum(cur[:, :-span], cur[:, span:])
+        span *= 2
+    return np.minimum(cur[:, :out_len], cur[:, width - span:width - span + out_len])
+
+
 def _borderline(finger_raw: np.ndarray, min_diff: np.ndarray, params: SlipParams) -> np.ndarray:
     """Updates whose decision could flip inside the numerical guard bands, shape (m,).
 
     ``finger_raw`` (2, m) and ``min_diff`` (6, m).
     """
-    near_delta = np.abs(min_diff - params.delta) <= params.guard_db
+    border = np.abs(min_diff - params.delta).min(axis=0) <= params.guard_db
+    cols = np.nonzero(finger_raw.any(axis=0))[0]  # group averages are 0 elsewhere
+    if cols.size:
+        g = params.guard_variance
+        f = finger_raw[:, cols]
+        near = ((np.abs(f - params.alpha) <= g * max(1.0, abs(params.alpha)))
+                | (np.abs(f - params.threshold) <= g * max(1.0, abs(params.threshold))))
+        border[cols] |= near.any(axis=0)
+    if params.alpha <= 0.0 or params.threshold <= 0.0:  # 0 itself is near a threshold
+        border |= _zero_near(finger_raw, params)
+    return border
+
+
+def _zero_near(finger_raw: np.ndarray, params: SlipParams) -> np.ndarray:
+    """Guard for unusual thresholds at or below 0, where a zero average is borderline."""
     g = params.guard_variance
-    near_alpha = np.abs(finger_raw - params.alpha) <= g * max(1.0, abs(params.alpha))
-    near_t = np.abs(finger_raw - params.threshold) <= g * max(1.0, abs(params.threshold))
-    return near_delta.any(axis=0) | near_alpha.any(axis=0) | near_t.any(axis=0)
+    near = ((np.abs(finger_raw - params.alpha) <= g * max(1.0, abs(params.alpha)))
+            | (np.abs(finger_raw - params.threshold) <= g * max(1.0, abs(params.threshold))))
+    return near.any(axis=0)
 
 
 def _finish(psd: np.ndarray, first_update: int, params: SlipParams, prior: np.ndarray
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Decisions for consecutive updates ``first_update ..`` given the previous history.
 
-    ``psd`` (m, 6); ``prior`` (h, 6) holds up to V-1 psd values of the updates just before.
-    Returns channel_variance (m, 6), finger_variance (m, 2), slip (m,), active (m,),
-    borderline (m,).
+    Channel-major: ``psd`` (6, m); ``prior`` (6, h) holds up to V-1 psd values of the
+    updates just before. Returns channel_variance (6, m), finger_variance (2, m), slip (m,),
+    active (m,), borderline (m,).
     """
     v = int(params.history)
-    m = psd.shape[0]
-    channel_variance = np.zeros((m, N_CHANNELS))
-    finger = np.zeros((m, 2))
+    m = psd.shape[1]
+    channel_variance = np.zeros((N_CHANNELS, m))
+    finger = np.zeros((2, m))
     slip = np.zeros(m, bool)
     border = np.zeros(m, bool)
     active = (first_update + np.arange(m)) >= v - 1
-    if active.any():
+    if active[-1]:
         first = int(np.argmax(active))  # active updates are a suffix
-        series = np.ascontiguousarray(np.concatenate([prior, psd], axis=0).T)  # (6, h + m)
-        offset = prior.shape[0]
+        series = np.concatenate([prior, psd], axis=1)  # (6, h + m)
+        offset = prior.shape[1]
         ma = m - first
         lo = offset + first - v + 1  # history of the first active update starts here
         terms = [series[:, lo + i:lo + i + ma] for i in range(v)]
-        cv, fv, sl, md, fraw = _decide_terms(terms, params)
-        channel_variance[first:] = cv.T
-        finger[first:] = fv.T
+        # smallest of the V-1 consecutive differences: a running minimum (exact)
+        steps = series[:, lo + 1:lo + v - 1 + ma] - series[:, lo:lo + v - 2 + ma]
+        min_diff = _running_min(steps, v - 1)
+        cv, fv, sl, md, fraw = _decide_rest(terms, min_diff, params)
+        channel_variance[:, first:] = cv
+        finger[:, first:] = fv
         slip[first:] = sl
         border[first:] = _borderline(fraw, md, params)
     return channel_variance, finger, slip, active, border
@@ -354,8 +415,9 @@ def slip_features_reference(frames: np.ndarray, fs: float = 2000.0,
     else:
         for i, t in enumerate(ends):
             psd[i] = reference_psd_max_db(x[t - n + 1:t + 1], fs, params)
-    cv, fv, sl, act, _ = _finish(psd, 0, params, np.zeros((0, N_CHANNELS)))
-    return SlipFeatures(ends.astype(np.int64), psd, cv, fv, sl, act)
+    cv, fv, sl, act, _ = _finish(np.ascontiguousarray(psd.T), 0, params,
+                                 np.zeros((N_CHANNELS, 0)))
+    return SlipFeatures(ends.astype(np.int64), psd, cv.T, fv.T, sl, act)
 
 
 # ----------------------------------------------------------------------------- fast
@@ -392,11 +454,17 @@ class SlipDetector:
         self._sin_t = np.ascontiguousarray(np.sin(angle).T)
         unit = 2.0 * np.pi * np.arange(n) / n
         self._unit_conj = np.cos(unit) + 1j * np.sin(unit)  # exp(+2i pi p / N)
-        self._block = 2048  # updates per vectorised block (cache size; no effect on results)
+        # updates per vectorised block: small enough to stay in cache and to keep the
+        # (6 block, hop) @ (hop, 2K) product below OpenBLAS' multithreading threshold
+        # (threads cost more than they bring at this size); no effect on the results
+        self._block = int(np.clip(131072 // (6 * 2 * 13 * self._hop), 16, 256))
         i = np.arange(self._hop)
-        ang = 2.0 * np.pi * (np.outer(self._bins, i) % n) / n
-        # rows: cos(2 pi k i / N) for each k, then -sin(2 pi k i / N): (2K, hop)
-        self._hop_dft_real = np.ascontiguousarray(np.concatenate([np.cos(ang), -np.sin(ang)]))
+        # z_k G_k = sum_i d_i exp(-2i pi k (i - hop) / N): columns (re, im) per bin, (hop, 2K)
+        ang = 2.0 * np.pi * (np.outer(i - self._hop, self._bins) % n) / n  # (hop, K)
+        table = np.empty((self._hop, 2 * self._bins.size))
+        table[:, 0::2] = np.cos(ang)
+        table[:, 1::2] = -np.sin(ang)
+        self._hop_dft_interleaved = table
         # rotation to the window frame: D_k = exp(+i 2 pi k s / N) A_k, s = window start
         self._zero_dc = self._bins == 0
         s2 = float(np.sum(signal.get_window('hann', n) ** 2))
@@ -414,7 +482,8 @@ class SlipDetector:
         self._samples = 0
         self._updates = 0
         self._a = np.zeros((self._bins.size, N_CHANNELS), np.complex128)
-        self._psd_history = np.zeros((0, N_CHANNELS))
+        self._psd_history = np.zeros((N_CHANNELS, 0))
+        self._scratch: dict[str, np.ndarray] = {}
         self.reference_recomputations = 0
 
     @property
@@ -464,19 +533,30 @@ class SlipDetector:
             return SlipFeatures()
         ends = first_t + hop * np.arange(m)
         buf_t = np.ascontiguousarray(buf.T)  # (6, L): updates on the fast axis below
-        psd = np.empty((m, N_CHANNELS))
+        psd = np.empty((N_CHANNELS, m))
         for b in range(0, m, self._block):
             e = ends[b:b + self._block]
-            psd[b:b + e.size] = self._psd_block(buf_t, start, e, u0 + b)
-        prior = self._psd_history
+            psd[:, b:b + e.size] = self._psd_block(buf_t, start, e, u0 + b)
+        prior = self._psd_history  # (6, <= V-1), channel-major
         cv, fv, sl, act, border = _finish(psd, u0, self.params, prior)
+        v = int(self.params.history)
+        self._psd_history = np.concatenate([prior, psd[:, -(v - 1):]], axis=1)[:, -(v - 1):]
+        psd, cv, fv = psd.T, cv.T, fv.T
         if border.any():
             self._redecide(border, buf, start, ends, cv, fv, sl)
         self._updates += m
-        v = int(self.params.history)
-        self._psd_history = np.concatenate([prior, psd], axis=0)[-(v - 1):]
         self._store(buf, start)
         return SlipFeatures(ends.astype(np.int64), psd, cv, fv, sl, act)
+
+    def _work(self, name: str, shape: tuple[int, ...], dtype=np.float64) -> np.ndarray:
+        """Contiguous scratch array: a prefix of a buffer kept between calls (stays in cache,
+        no allocation per block)."""
+        size = int(np.prod(shape))
+        buf = self._scratch.get(name)
+        if buf is None or buf.size < size or buf.dtype != dtype:
+            buf = np.empty(max(size, 1), dtype)
+            self._scratch[name] = buf
+        return buf[:size].reshape(shape)
 
     def _psd_block(self, buf_t: np.ndarray, start: int, ends: np.ndarray,
                    first_update: int) -> np.ndarray:
@@ -486,6 +566,8 @@ class SlipDetector:
         """
         n, hop = self._n, self._hop
         mb = ends.size
+        k = self._bins.size
+        c = N_CHANNELS
         upd = first_update + np.arange(mb)
         resync = np.nonzero(upd % int(self.params.resync_interval) == 0)[0]
         # increments: inc_k(u) = sum over the update's hop samples j of
@@ -494,25 +576,29 @@ class SlipDetector:
         lo = int(ends[0]) - hop + 1 - start  # first increment sample, relative to buffer
         hi = int(ends[-1]) + 1 - start
         pad = max(0, n - lo)  # only update 0 (a resync) lacks x[j - N]; its increment is unused
-        diff = np.zeros((N_CHANNELS, hi - lo))
-        diff[:, pad:] = buf_t[:, lo + pad:hi] - buf_t[:, lo + pad - n:hi - n]
-        by_hop = np.ascontiguousarray(diff.reshape(N_CHANNELS, mb, hop).transpose(2, 0, 1))
-        prod = self._hop_dft_real @ by_hop.reshape(hop, N_CHANNELS * mb)  # (2K, 6 mb)
-        k = self._bins.size
-        g = np.empty((k, N_CHANNELS * mb), np.complex128)
-        g.real = prod[:k]
-        g.imag = prod[k:]
-        q = (ends - hop + 1) % n
-        rot = self._unit_conj[(-(self._bins[:, None] * q[None, :])) % n]  # (K, mb)
-        inc = g.reshape(-1, N_CHANNELS, mb) * rot[:, None, :]
-        # running sums between resync points, continuing from the stored state
-        a = np.empty_like(inc)
+        diff = self._work('diff', (c, hi - lo))
+        diff[:, :pad] = 0.0
+        np.subtract(buf_t[:, lo + pad:hi], buf_t[:, lo + pad - n:hi - n], out=diff[:, pad:])
+        # (6 mb, hop) @ (hop, 2K) with interleaved (re, im) columns = complex (6, mb, K);
+        # the table includes exp(+2i pi k hop / N) so that the remaining rotation is the
+        # conjugate of the window rotation R below: inc = conj(R) * (z G)
+        prod = self._work('prod', (c * mb, 2 * k))
+        np.matmul(diff.reshape(c * mb, hop), self._hop_dft_interleaved, out=prod)
+        g = prod.view(np.complex128).reshape(c, mb, k).transpose(2, 0, 1)  # (K, 6, mb)
+        s_mod = (ends - n + 1) % n  # window start s mod N
+        ph = (self._bins[:, None] * s_mod[None, :]) % n  # (K, mb)
+        rot = self._unit_conj[ph]  # R = exp(+2i pi k s / N), (K, mb)
+        inc = self._work('inc', (k, c, mb), np.complex128)
+        np.multiply(g, rot.conj()[:, None, :], out=inc)
+        # running sums between resync points, continuing from the stored state:
+        # inc[pos] += cur, then a sequential cumulative sum into a
+        a = self._work('a', (k, c, mb), np.complex128)
         cur = self._a
         pos = 0
         for nxt in [*resync.tolist(), mb]:
             if nxt > pos:
-                seg = np.concatenate([cur[:, :, None], inc[:, :, pos:nxt]], axis=2)
-                a[:, :, pos:nxt] = np.cumsum(seg, axis=2)[:, :, 1:]
+                inc[:, :, pos] += cur
+                np.add.accumulate(inc[:, :, pos:nxt], axis=2, out=a[:, :, pos:nxt])
                 cur = a[:, :, nxt - 1]
             if nxt < mb:
                 t = int(ends[nxt])
@@ -521,18 +607,25 @@ class SlipDetector:
                 pos = nxt + 1
         self._a = cur.copy()
         # rotate to the window frame: D_k = exp(+2i pi k s / N) A_k, s = window start
-        ph = (self._bins[:, None] * ((ends - n + 1) % n)[None, :]) % n  # (K, mb)
-        d = a * self._unit_conj[ph][:, None, :]
+        d = inc  # reuse
+        np.multiply(a, rot[:, None, :], out=d)
         if self._zero_dc.any():  # constant detrend: D_0 = 0
             d[self._zero_dc] = 0.0
-        # Hann: X_k = (2 D_k - D_{k-1} - D_{k+1}) / 4; the 1/16 is folded into the scale
-        x = 2.0 * d[1:-1] - (d[:-2] + d[2:])
-        p = x.real * x.real + x.imag * x.imag  # (B, 6, mb)
+        # Hann: X_k = (2 D_k - D_{k-1} - D_{k+1}) / 4; -4 X_k = (D_{k-1} + D_{k+1}) - 2 D_k,
+        # the factor 1/16 of |X|^2 is folded into the scale
+        x = a[:k - 2]  # reuse: a is no longer needed
+        np.add(d[:-2], d[2:], out=x)
+        np.subtract(x, d[1:-1], out=x)
+        np.subtract(x, d[1:-1], out=x)
+        sq = d[:k - 2].view(np.float64)  # reuse: (K-2, 6, 2 mb) real
+        np.square(x.view(np.float64), out=sq)
+        p = prod.reshape(-1)[:(k - 2) * c * mb].reshape(k - 2, c, mb)  # reuse
+        np.add(sq[:, :, 0::2], sq[:, :, 1::2], out=p)
         if self._uniform_scale:
             top = p.max(axis=0) * self._scale[0, 0, 0]
         else:
             top = (p * self._scale).max(axis=0)
-        return (10.0 * np.log10(top + self.params.eps)).T
+        return 10.0 * np.log10(top + self.params.eps)
 
     def _redecide(self, border: np.ndarray, buf: np.ndarray, start: int, ends: np.ndarray,
                   cv: np.ndarray, fv: np.ndarray, sl: np.ndarray) -> None:
