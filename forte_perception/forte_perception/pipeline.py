@@ -270,6 +270,11 @@ class PerceptionPipeline:
         self._out.slip_active = False
 
     @property
+    def gaps(self) -> int:
+        """Gaps since (re)start: marked gaps and runs of rejected rows [count]."""
+        return self._gaps
+
+    @property
     def tare_pending(self) -> bool:
         """True while a tare is collecting its quiet period."""
         return self._tare_buffer is not None

@@ -1,0 +1,453 @@
+"""ROS 2 shell around :class:`forte_perception.pipeline.PerceptionPipeline`.
+
+Subscribes ``tactile/frames`` (forte_msgs/TactileFrames, sensor-data QoS: best effort, keep
+last 50), publishes ``tactile/state`` (forte_msgs/TactileState, reliable, keep last 50) once
+per input message, serves ``perception/tare`` (forte_msgs/srv/Tare) and
+``perception/reset`` (std_srvs/srv/Trigger), and publishes ``/diagnostics`` at 1 Hz.
+
+Input checks (each counted, reported in diagnostics, never invented):
+
+- ``first_sequence`` must continue the previous message (``previous first_sequence +
+  sample_count``). A jump forward is a gap of that many samples; a jump backwards (driver
+  restart, looped replay) is a discontinuity. Both restart the pipeline's median filter,
+  contact window and slip detector (see ``forte_perception.pipeline``) and make the next
+  state ``data_valid = false``; ``input_gaps`` counts them.
+- ``channel_names`` must be the contract's six names (any order: columns are reordered) or
+  empty (contract order assumed); ``data`` must hold ``sample_count x 6`` values;
+  ``sample_period`` must match ``sample_rate`` within 1 %. Otherwise the message is
+  dropped (a gap follows).
+- Rows with NaN/inf are dropped by the pipeline and counted.
+- No input for ``stale_timeout`` seconds: a state with ``data_valid = false`` is published
+  every ``stale_timeout`` until input returns.
+
+Header stamp of a state = sample time of the latest input sample used (input stamp +
+(sample_count - 1) * sample_period); ``sample_index`` counts the samples received since
+the pipeline (re)started (lost samples are not counted).
+
+Threading: frames, timers and parameter changes run in one mutually exclusive group; the
+services in a reentrant group (a tare request waits for its quiet period without blocking
+the frames). Run it in a MultiThreadedExecutor (``main`` does).
+"""
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    SetParametersResult,
+)
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from std_srvs.srv import Trigger
+
+from forte_msgs.msg import TactileFrames, TactileState
+from forte_msgs.srv import Tare
+from forte_perception.force import ForceModel
+from forte_perception.pipeline import PerceptionOutput, PerceptionPipeline, PipelineConfig
+from forte_perception.slip import SlipParams
+
+CHANNEL_NAMES = ('left_distal', 'left_middle', 'left_root',
+                 'right_distal', 'right_middle', 'right_root')
+
+#: Pipeline parameters: name -> (default, description, (low, high), config path).
+PIPELINE_PARAMETERS: dict[str, tuple] = {
+    'median_window': (11, 'running median length M [samples]', (1, 201), 'median_window'),
+    'contact_window': (200, 'contact window w [samples]', (2, 20000), 'contact_window'),
+    'contact_threshold': (0.01, 'contact threshold tau, max - min over w [normalised units; '
+                          '0.01 = 0.5 % of the 2.0 span]', (1e-6, 2.0), 'contact_threshold'),
+    'tare_duration': (2.0, 'quiet period averaged by a tare [s]', (0.001, 60.0),
+                      'tare_duration'),
+    'auto_tare': (True, 'tare from the first quiet period after (re)start', None, 'auto_tare'),
+    'force_rate': (100.0, 'force estimates per second; sample_rate / force_rate must be an '
+                   'integer [Hz]', (0.1, 20000.0), 'force_rate'),
+    'slip_window': (400, 'slip FFT window N [samples]', (8, 8192), 'slip.window'),
+    'slip_hop': (4, 'samples between slip detector updates (1 = every sample)', (1, 8192),
+                 'slip.hop'),
+    'slip_f_min': (10.0, 'slip band lower edge [Hz]', (0.0, 1e5), 'slip.f_min'),
+    'slip_f_max': (50.0, 'slip band upper edge [Hz]', (0.0, 1e5), 'slip.f_max'),
+    'slip_history': (15, 'PSD history length V [updates]', (2, 1000), 'slip.history'),
+    'slip_delta': (0.1, 'minimal increment for monotonicity delta [dB]', (-1e3, 1e3),
+                   'slip.delta'),
+    'slip_alpha': (0.6, 'minimum group average variance alpha [dB^2]', (-1e3, 1e6),
+                   'slip.alpha'),
+    'slip_threshold': (2.0, 'slip threshold T [dB^2]', (-1e3, 1e6), 'slip.threshold'),
+}
+
+
+def _descriptor(description: str, bounds, value, read_only: bool = False
+                ) -> ParameterDescriptor:
+    descriptor = ParameterDescriptor(description=description, read_only=read_only)
+    if bounds is not None and isinstance(value, bool):
+        return descriptor
+    if bounds is not None and isinstance(value, int):
+        descriptor.integer_range = [IntegerRange(from_value=int(bounds[0]),
+                                                 to_value=int(bounds[1]), step=1)]
+    elif bounds is not None:
+        descriptor.floating_point_range = [FloatingPointRange(
+            from_value=float(bounds[0]), to_value=float(bounds[1]), step=0.0)]
+    return descriptor
+
+
+def build_config(values: dict, sample_rate: float) -> PipelineConfig:
+    """PipelineConfig from parameter values (raises ValueError with a reason)."""
+    slip = SlipParams(
+        window=int(values['slip_window']), hop=int(values['slip_hop']),
+        f_min=float(values['slip_f_min']), f_max=float(values['slip_f_max']),
+        history=int(values['slip_history']), delta=float(values['slip_delta']),
+        alpha=float(values['slip_alpha']), threshold=float(values['slip_threshold']))
+    config = PipelineConfig(
+        fs=float(sample_rate), median_window=int(values['median_window']),
+        contact_window=int(values['contact_window']),
+        contact_threshold=float(values['contact_threshold']),
+        tare_duration=float(values['tare_duration']), auto_tare=bool(values['auto_tare']),
+        force_rate=float(values['force_rate']), slip=slip)
+    config.validate()
+    return config
+
+
+def load_model(path: str) -> ForceModel | None:
+    """The model at ``path`` ('' = none); raises ValueError with a reason."""
+    if not path:
+        return None
+    if not Path(path).is_file():
+        raise ValueError(f'model_path {path!r}: no such file')
+    try:
+        return ForceModel.load(path)
+    except (OSError, ValueError, KeyError) as exc:
+        raise ValueError(f'model_path {path!r}: {exc}') from exc
+
+
+class PerceptionNode(Node):
+    """The FORTE perception node (see the module docstring)."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('perception', **kwargs)
+        self.declare_parameter('model_path', '', ParameterDescriptor(
+            description='force model file (.npz written by forte_train_force); empty: no '
+                        'force estimate (force_valid false)'))
+        self.declare_parameter('sample_rate', 2000.0, _descriptor(
+            'expected input sample rate [Hz]; messages with another sample_period are dropped',
+            (1.0, 1e6), 2000.0, read_only=True))
+        self.declare_parameter('frame_id', 'forte_base_link', ParameterDescriptor(
+            description='frame_id of tactile/state when the input has none'))
+        self.declare_parameter('stale_timeout', 0.1, _descriptor(
+            'no input for this long -> publish data_valid false [s]', (0.001, 60.0), 0.1))
+        self.declare_parameter('diagnostics_period', 1.0, _descriptor(
+            'period of /diagnostics [s]', (0.05, 60.0), 1.0, read_only=True))
+        for name, (default, description, bounds, _) in PIPELINE_PARAMETERS.items():
+            self.declare_parameter(name, default, _descriptor(description, bounds, default))
+
+        self._lock = threading.RLock()
+        self._sample_rate = float(self.get_parameter('sample_rate').value)
+        values = {name: self.get_parameter(name).value for name in PIPELINE_PARAMETERS}
+        config = build_config(values, self._sample_rate)  # raises: bad YAML stops the node
+        model = load_model(str(self.get_parameter('model_path').value))
+        self._pipeline = PerceptionPipeline(config, model)
+        self._frame_id = str(self.get_parameter('frame_id').value)
+        self._stale_timeout = float(self.get_parameter('stale_timeout').value)
+        self._expected_sequence: int | None = None
+        self._gap_offset = 0  # gaps counted by pipelines before a reset
+        self._last_input = time.monotonic()
+        self._stale_published = False
+        self._tare_event = threading.Event()
+        self.counters = {
+            'messages': 0, 'samples': 0, 'sequence_gaps': 0, 'lost_samples': 0,
+            'sequence_resets': 0, 'rejected_messages': 0, 'slip_messages': 0,
+            'stale_states': 0, 'published': 0,
+        }
+        self._last_reject_reason = ''
+        self._processing = deque(maxlen=2000)  # seconds per message
+        self._arrivals = deque(maxlen=4000)  # monotonic arrival times
+        self._last_output: PerceptionOutput | None = None
+        self._last_stamp = None
+
+        self._group = MutuallyExclusiveCallbackGroup()
+        self._service_group = ReentrantCallbackGroup()
+        self._state_pub = self.create_publisher(
+            TactileState, 'tactile/state',
+            QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE,
+                       history=HistoryPolicy.KEEP_LAST))
+        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        sensor_qos = QoSProfile(depth=50, reliability=qos_profile_sensor_data.reliability,
+                                durability=qos_profile_sensor_data.durability,
+                                history=HistoryPolicy.KEEP_LAST)
+        self.create_subscription(TactileFrames, 'tactile/frames', self._on_frames, sensor_qos,
+                                 callback_group=self._group)
+        self.create_service(Tare, 'perception/tare', self._on_tare,
+                            callback_group=self._service_group)
+        self.create_service(Trigger, 'perception/reset', self._on_reset,
+                            callback_group=self._service_group)
+        self._stale_timer = self.create_timer(self._stale_timeout, self._check_stale,
+                                              callback_group=self._group)
+        self.create_timer(float(self.get_parameter('diagnostics_period').value),
+                          self._publish_diagnostics, callback_group=self._group)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.get_logger().info(
+            f'perception up: fs={self._sample_rate:g} Hz, force model '
+            f'{"loaded" if model is not None else "none"}, slip N={config.slip.window} '
+            f'hop={config.slip.hop}')
+
+    # ------------------------------------------------------------------ parameters
+    def _on_set_parameters(self, parameters) -> SetParametersResult:
+        with self._lock:
+            values = {name: self.get_parameter(name).value for name in PIPELINE_PARAMETERS}
+            pipeline_change = False
+            model = self._pipeline.model
+            model_change = False
+            stale = None
+            for p in parameters:
+                if p.name in PIPELINE_PARAMETERS:
+                    default = PIPELINE_PARAMETERS[p.name][0]
+                    if isinstance(default, bool) != isinstance(p.value, bool):
+                        return SetParametersResult(successful=False,
+                                                   reason=f'{p.name} must be a boolean')
+                    values[p.name] = p.value
+                    pipeline_change = True
+                elif p.name == 'model_path':
+                    try:
+                        model = load_model(str(p.value))
+                    except ValueError as exc:
+                        return SetParametersResult(successful=False, reason=str(exc))
+                    model_change = True
+                elif p.name == 'stale_timeout':
+                    if not (isinstance(p.value, float) and p.value > 0):
+                        return SetParametersResult(successful=False,
+                                                   reason='stale_timeout must be > 0 s')
+                    stale = float(p.value)
+            config = None
+            if pipeline_change:
+                try:
+                    config = build_config(values, self._sample_rate)
+                except (ValueError, TypeError) as exc:
+                    return SetParametersResult(successful=False, reason=str(exc))
+            # all checks passed: apply
+            if config is not None:
+                self._gap_offset += self._pipeline.gaps
+                self._pipeline.config = config
+                self._pipeline.reset()
+                self.get_logger().info('pipeline parameters changed: pipeline restarted')
+            if model_change:
+                self._pipeline.set_model(model)
+                self.get_logger().info(
+                    f'force model {"loaded" if model is not None else "removed"}')
+            if stale is not None:
+                self._stale_timeout = stale
+                self._stale_timer.cancel()
+                self._stale_timer = self.create_timer(stale, self._check_stale,
+                                                      callback_group=self._group)
+            for p in parameters:
+                if p.name == 'frame_id':
+                    self._frame_id = str(p.value)
+        return SetParametersResult(successful=True)
+
+    # ------------------------------------------------------------------ frames
+    def _reject(self, reason: str) -> None:
+        self.counters['rejected_messages'] += 1
+        self._last_reject_reason = reason
+        self._pipeline.mark_gap()
+        self._expected_sequence = None
+        self.get_logger().warn(f'tactile/frames message dropped: {reason}',
+                               throttle_duration_sec=1.0)
+
+    def _frames_array(self, msg: TactileFrames) -> np.ndarray | None:
+        count = int(msg.sample_count)
+        names = list(msg.channel_names)
+        width = len(names) if names else 6
+        data = np.asarray(msg.data, dtype=np.float64)
+        if data.size != count * width:
+            self._reject(f'data has {data.size} values, expected {count} x {width}')
+            return None
+        frames = data.reshape(count, width)
+        if names and tuple(names) != CHANNEL_NAMES:
+            if sorted(names) != sorted(CHANNEL_NAMES) or len(set(names)) != 6:
+                self._reject(f'unknown channel_names {names}')
+                return None
+            frames = frames[:, [names.index(c) for c in CHANNEL_NAMES]]
+        if count and msg.sample_period > 0 and \
+                abs(msg.sample_period * self._sample_rate - 1.0) > 0.01:
+            self._reject(f'sample_period {msg.sample_period} s does not match sample_rate '
+                         f'{self._sample_rate} Hz')
+            return None
+        return frames
+
+    def _on_frames(self, msg: TactileFrames) -> None:
+        t0 = time.perf_counter()
+        now = time.monotonic()
+        with self._lock:
+            self._arrivals.append(now)
+            self._last_input = now
+            self._stale_published = False
+            self.counters['messages'] += 1
+            first = int(msg.first_sequence)
+            count = int(msg.sample_count)
+            if self._expected_sequence is not None and first != self._expected_sequence:
+                if first > self._expected_sequence:
+                    self.counters['sequence_gaps'] += 1
+                    self.counters['lost_samples'] += first - self._expected_sequence
+                else:
+                    self.counters['sequence_resets'] += 1
+                self._pipeline.mark_gap()
+            frames = self._frames_array(msg)
+            if frames is None:
+                return
+            self._expected_sequence = first + count
+            if count == 0:
+                return
+            self.counters['samples'] += count
+            out = self._pipeline.process(frames)
+            period = msg.sample_period if msg.sample_period > 0 else 1.0 / self._sample_rate
+            stamp_ns = (msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+                        + int(round((count - 1) * period * 1e9)))
+            frame_id = msg.header.frame_id or self._frame_id
+            state = self._to_message(out, stamp_ns, frame_id)
+            self._last_output = out
+            self._last_stamp = (stamp_ns, frame_id)
+            if out.slip:
+                self.counters['slip_messages'] += 1
+            if self._pipeline.tare_result is not None:
+                self._tare_event.set()
+        self._state_pub.publish(state)
+        self.counters['published'] += 1
+        self._processing.append(time.perf_counter() - t0)
+
+    def _to_message(self, out: PerceptionOutput, stamp_ns: int, frame_id: str,
+                    valid: bool | None = None) -> TactileState:
+        msg = TactileState()
+        msg.header.stamp.sec = int(stamp_ns // 10**9)
+        msg.header.stamp.nanosec = int(stamp_ns % 10**9)
+        msg.header.frame_id = frame_id
+        msg.sample_index = max(0, int(out.sample_index))
+        msg.force = float(out.force)
+        msg.force_valid = bool(out.force_valid)
+        msg.contact = [bool(c) for c in out.contact]
+        msg.slip = bool(out.slip)
+        msg.slip_active = bool(out.slip_active)
+        msg.psd_max_db = [float(v) for v in out.psd_max_db]
+        msg.finger_variance = [float(v) for v in out.finger_variance]
+        msg.slip_updates = int(out.slip_updates)
+        msg.filtered = [float(v) for v in out.filtered]
+        msg.tared = bool(out.tared)
+        msg.data_valid = bool(out.data_valid if valid is None else valid)
+        msg.input_gaps = int(self._gap_offset + out.input_gaps)
+        return msg
+
+    def _check_stale(self) -> None:
+        with self._lock:
+            age = time.monotonic() - self._last_input
+            if age < self._stale_timeout or self._last_output is None:
+                return
+            out = self._last_output
+            stamp_ns, frame_id = self._last_stamp
+            state = self._to_message(out, stamp_ns, frame_id, valid=False)
+            state.slip = False
+            state.force_valid = False
+            self.counters['stale_states'] += 1
+            self._stale_published = True
+        self._state_pub.publish(state)
+
+    # ------------------------------------------------------------------ services
+    def _on_tare(self, request: Tare.Request, response: Tare.Response) -> Tare.Response:
+        duration = float(request.duration)
+        with self._lock:
+            if duration == 0.0:
+                duration = float(self._pipeline.config.tare_duration)
+            self._tare_event.clear()
+            ok, reason = self._pipeline.request_tare(duration)
+        if not ok:
+            response.success = False
+            response.message = reason
+            response.baseline = []
+            return response
+        deadline = duration + 2.0 + 5.0 * self._stale_timeout
+        if not self._tare_event.wait(timeout=deadline):
+            response.success = False
+            response.message = f'no complete quiet period within {deadline:.1f} s (no input?)'
+            return response
+        with self._lock:
+            result = self._pipeline.tare_result
+        response.success = bool(result.success)
+        response.message = result.message
+        response.baseline = [float(v) for v in result.baseline] if result.success else []
+        return response
+
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response
+                  ) -> Trigger.Response:
+        with self._lock:
+            self._gap_offset += self._pipeline.gaps
+            self._pipeline.reset()
+            self._expected_sequence = None
+        response.success = True
+        response.message = 'pipeline restarted (filters, detector, means, baseline)'
+        return response
+
+    # ------------------------------------------------------------------ diagnostics
+    def _publish_diagnostics(self) -> None:
+        with self._lock:
+            now = time.monotonic()
+            recent = [t for t in self._arrivals if now - t <= 1.0]
+            rate = float(len(recent))
+            proc = np.asarray(self._processing) * 1e6
+            out = self._last_output
+            stale = now - self._last_input > self._stale_timeout
+            status = DiagnosticStatus(name='perception: pipeline', hardware_id='forte')
+            level, message = DiagnosticStatus.OK, 'ok'
+            if out is None:
+                level, message = DiagnosticStatus.WARN, 'no input yet'
+            elif stale:
+                level, message = DiagnosticStatus.ERROR, 'input stale'
+            elif not out.tared:
+                level, message = DiagnosticStatus.WARN, 'not tared yet'
+            elif self._pipeline.model is None:
+                level, message = DiagnosticStatus.WARN, 'no force model'
+            status.level = level
+            status.message = message
+            values = {
+                'input messages/s': f'{rate:.1f}',
+                'tared': str(bool(out.tared) if out else False),
+                'force model': 'loaded' if self._pipeline.model is not None else 'none',
+                'last reject reason': self._last_reject_reason,
+                'processing p50 [us]': f'{np.percentile(proc, 50):.0f}' if proc.size else '',
+                'processing p99 [us]': f'{np.percentile(proc, 99):.0f}' if proc.size else '',
+                'rejected NaN/inf samples': str(out.rejected_samples if out else 0),
+                'input gaps': str(self._gap_offset + (out.input_gaps if out else 0)),
+            }
+            values.update({k.replace('_', ' '): str(v) for k, v in self.counters.items()})
+            status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        array.status = [status]
+        self._diag_pub.publish(array)
+
+
+def main(args=None) -> None:
+    """Entry point ``perception_node``."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = PerceptionNode()
+        executor = MultiThreadedExecutor(num_threads=2)
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()
+
+
+__all__ = ['PerceptionNode', 'build_config', 'load_model', 'main']

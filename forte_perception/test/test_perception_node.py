@@ -1,0 +1,263 @@
+"""The perception node over real rclpy/DDS: frames published by another node, states,
+services, parameters and diagnostics; online results equal the offline pipeline."""
+import threading
+import time
+
+import numpy as np
+import pytest
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from perception_signals import random_walk, slip_bursts
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from std_srvs.srv import Trigger
+
+from forte_msgs.msg import TactileFrames, TactileState
+from forte_msgs.srv import Tare
+from forte_perception.force import ForceModel
+from forte_perception.perception_node import CHANNEL_NAMES, PerceptionNode
+from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
+
+CHUNK = 20
+
+
+def stream(n=16000, seed=0):
+    x = 0.2 + slip_bursts(n, seed=seed, onsets=(9000, 13000)) + random_walk(n, seed=seed) * 0.05
+    x[6000:7000] += np.linspace(0, 0.05, 1000)[:, None]  # press
+    x[7000:] += 0.05
+    return x
+
+
+class Harness:
+    """A perception node and a peer node (publisher, subscriber, clients) in one executor."""
+
+    def __init__(self, parameters=()):
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = PerceptionNode(context=self.context, parameter_overrides=list(parameters))
+        self.peer = Node('peer', context=self.context)
+        self.pub = self.peer.create_publisher(
+            TactileFrames, 'tactile/frames',
+            QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE))
+        self.states: list[TactileState] = []
+        self.diagnostics: list[DiagnosticArray] = []
+        self.cond = threading.Condition()
+        self.peer.create_subscription(TactileState, 'tactile/state', self._on_state,
+                                      QoSProfile(depth=1000,
+                                                 reliability=ReliabilityPolicy.RELIABLE))
+        self.peer.create_subscription(DiagnosticArray, '/diagnostics',
+                                      self.diagnostics.append, 10)
+        self.tare = self.peer.create_client(Tare, 'perception/tare')
+        self.reset = self.peer.create_client(Trigger, 'perception/reset')
+        self.executor = MultiThreadedExecutor(num_threads=3, context=self.context)
+        self.executor.add_node(self.node)
+        self.executor.add_node(self.peer)
+        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread.start()
+        self.sequence = 0
+        deadline = time.monotonic() + 10.0
+        while self.pub.get_subscription_count() < 1 or \
+                self.node.count_publishers('tactile/frames') < 1:
+            assert time.monotonic() < deadline, 'discovery timed out'
+            time.sleep(0.01)
+        time.sleep(0.2)
+
+    def _on_state(self, msg):
+        with self.cond:
+            self.states.append(msg)
+            self.cond.notify_all()
+
+    def wait_states(self, count, timeout=5.0):
+        with self.cond:
+            assert self.cond.wait_for(lambda: len(self.states) >= count, timeout), \
+                f'{len(self.states)} states, expected {count}'
+
+    def message(self, rows, first_sequence=None, names=CHANNEL_NAMES, period=0.0005):
+        msg = TactileFrames()
+        msg.header.frame_id = 'forte_base_link'
+        seq = self.sequence if first_sequence is None else first_sequence
+        msg.header.stamp.sec = 100 + seq // 2000
+        msg.header.stamp.nanosec = (seq % 2000) * 500_000
+        msg.first_sequence = seq
+        msg.sample_period = period
+        msg.channel_names = list(names)
+        msg.sample_count = rows.shape[0]
+        msg.data = rows.astype(np.float64).ravel().tolist()
+        self.sequence = seq + rows.shape[0]
+        return msg
+
+    def send(self, rows, wait=True, **kwargs):
+        """Publish one message and (by default) wait for its state (lockstep: no drops)."""
+        before = len(self.states)
+        self.pub.publish(self.message(rows, **kwargs))
+        if wait:
+            self.wait_states(before + 1)
+
+    def call(self, client, request, feed=None, timeout=10.0):
+        assert client.wait_for_service(timeout_sec=5.0)
+        future = client.call_async(request)
+        deadline = time.monotonic() + timeout
+        rows = iter(feed) if feed is not None else None
+        while not future.done():
+            assert time.monotonic() < deadline, 'service call timed out'
+            if rows is not None:
+                chunk = next(rows, None)
+                if chunk is not None:
+                    self.send(chunk)
+                    continue
+            time.sleep(0.01)
+        return future.result()
+
+    def close(self):
+        self.executor.shutdown(timeout_sec=5.0)
+        self.thread.join(timeout=5.0)
+        self.node.destroy_node()
+        self.peer.destroy_node()
+        rclpy.shutdown(context=self.context)
+
+
+@pytest.fixture
+def model_file(tmp_path):
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-0.3, 0.3, size=(400, 24))
+    model = ForceModel.fit(x, 4.0 + 10.0 * x[:, :6].sum(axis=1), force_range=(0.0, 8.0))
+    path = tmp_path / 'force.npz'
+    model.save(path)
+    return path
+
+
+@pytest.fixture
+def harness(request, model_file):
+    params = [Parameter('model_path', value=str(model_file)),
+              Parameter('stale_timeout', value=30.0)]  # a slow machine is not a stale sensor
+    params += list(getattr(request, 'param', []))
+    h = Harness(params)
+    yield h
+    h.close()
+
+
+def test_online_equals_offline(harness, model_file):
+    x = stream()
+    chunks = [x[i:i + CHUNK] for i in range(0, len(x), CHUNK)]
+    for chunk in chunks:
+        harness.send(chunk)
+    offline = PerceptionPipeline(PipelineConfig(), ForceModel.load(model_file))
+    outs = [offline.process(c) for c in chunks]
+    assert len(harness.states) == len(outs)
+    for state, out in zip(harness.states, outs, strict=True):
+        assert state.sample_index == out.sample_index
+        np.testing.assert_array_equal(state.psd_max_db, out.psd_max_db)
+        np.testing.assert_array_equal(state.finger_variance, out.finger_variance)
+        np.testing.assert_array_equal(state.filtered, out.filtered)
+        np.testing.assert_array_equal([state.force], [out.force])
+        assert (state.slip, state.slip_active, state.force_valid, state.tared) == \
+            (out.slip, out.slip_active, out.force_valid, out.tared)
+        assert list(state.contact) == list(out.contact)
+        assert state.slip_updates == out.slip_updates
+        assert state.data_valid and state.input_gaps == 0
+    assert any(s.slip for s in harness.states) and any(s.contact[0] for s in harness.states)
+    assert sum(s.force_valid for s in harness.states) > 300
+    last = harness.states[-1]
+    assert last.header.frame_id == 'forte_base_link'
+    end = len(x) - 1  # stamp of the last sample: 100 s + 7999.5 ms
+    assert last.header.stamp.sec * 10**9 + last.header.stamp.nanosec == \
+        100 * 10**9 + end * 500_000
+
+
+def test_gaps_bad_messages_and_nan(harness):
+    x = stream()
+    for i in range(0, 3000, CHUNK):
+        harness.send(x[i:i + CHUNK])
+    assert harness.states[-1].data_valid
+    harness.send(x[3000:3020], first_sequence=harness.sequence + 40)  # 40 lost samples
+    gap_state = harness.states[-1]
+    assert not gap_state.data_valid and gap_state.input_gaps == 1 and not gap_state.slip_active
+    harness.send(x[3020:3040])
+    assert harness.states[-1].data_valid and harness.states[-1].input_gaps == 1
+    assert harness.node.counters['lost_samples'] == 40
+    # wrong channel names: dropped (no state), counted, next state invalid
+    before = len(harness.states)
+    harness.send(x[3040:3060], names=['a', 'b', 'c', 'd', 'e', 'f'], wait=False)
+    harness.send(x[3060:3080])
+    assert len(harness.states) == before + 1
+    assert not harness.states[-1].data_valid
+    assert harness.node.counters['rejected_messages'] == 1
+    # permuted names are reordered
+    perm = [5, 4, 3, 2, 1, 0]
+    harness.send(x[3080:3100][:, perm], names=[CHANNEL_NAMES[i] for i in perm])
+    assert harness.states[-1].data_valid
+    # NaN rows: dropped and counted, the state says invalid
+    bad = x[3100:3120].copy()
+    bad[3, 1] = np.nan
+    harness.send(bad)
+    assert not harness.states[-1].data_valid
+    assert harness.states[-1].input_gaps == 3  # sequence gap, dropped message, NaN run
+    # backwards jump (driver restart)
+    harness.send(x[3120:3140], first_sequence=0)
+    assert not harness.states[-1].data_valid
+    assert harness.node.counters['sequence_resets'] == 1
+
+
+def test_tare_and_reset_services(harness):
+    x = stream()
+    for i in range(0, 5000, CHUNK):
+        harness.send(x[i:i + CHUNK])
+    assert harness.states[-1].tared  # auto-tare after 2 s
+    feed = [x[i:i + CHUNK] for i in range(5000, 6000, CHUNK)]
+    result = harness.call(harness.tare, Tare.Request(duration=0.2), feed=feed)
+    assert result.success, result.message
+    assert len(result.baseline) == 6
+    np.testing.assert_allclose(result.baseline, x[5000:5400].mean(axis=0), atol=2e-3)
+    # during the press: refused at once
+    for i in range(6000, 6500, CHUNK):
+        harness.send(x[i:i + CHUNK])
+    assert any(harness.states[-1].contact)
+    refused = harness.call(harness.tare, Tare.Request(duration=0.0))
+    assert not refused.success and 'contact' in refused.message
+    reset = harness.call(harness.reset, Trigger.Request())
+    assert reset.success
+    harness.send(x[6500:6520])
+    assert harness.states[-1].sample_index == 19 and not harness.states[-1].tared
+
+
+def test_parameters_are_validated(harness, tmp_path):
+    node = harness.node
+    bad = node.set_parameters([Parameter('force_rate', value=300.0)])[0]
+    assert not bad.successful and 'integer' in bad.reason
+    bad = node.set_parameters([Parameter('slip_hop', value=0)])[0]
+    assert not bad.successful
+    bad = node.set_parameters_atomically([Parameter('slip_f_min', value=11.0),
+                                          Parameter('slip_f_max', value=14.0)])
+    assert not bad.successful and 'bin' in bad.reason
+    bad = node.set_parameters([Parameter('model_path', value=str(tmp_path / 'none.npz'))])[0]
+    assert not bad.successful and 'no such file' in bad.reason
+    (tmp_path / 'junk.npz').write_bytes(b'not a model')
+    bad = node.set_parameters([Parameter('model_path', value=str(tmp_path / 'junk.npz'))])[0]
+    assert not bad.successful
+    good = node.set_parameters_atomically([Parameter('slip_hop', value=2),
+                                           Parameter('force_rate', value=200.0)])
+    assert good.successful, good.reason
+    assert node._pipeline.config.slip.hop == 2 and node._pipeline.config.force_step == 10
+    x = stream()
+    for i in range(0, 1000, CHUNK):
+        harness.send(x[i:i + CHUNK])
+    assert harness.states[-1].slip_updates == (1000 - 400) // 2 + 1
+
+
+def test_stale_input_and_diagnostics(harness):
+    assert harness.node.set_parameters([Parameter('stale_timeout', value=0.3)])[0].successful
+    x = stream()
+    for i in range(0, 600, CHUNK):
+        harness.send(x[i:i + CHUNK])
+    n = len(harness.states)
+    harness.wait_states(n + 1, timeout=3.0)  # stale state(s) follow without input
+    assert not harness.states[-1].data_valid
+    deadline = time.monotonic() + 5.0
+    while not harness.diagnostics and time.monotonic() < deadline:
+        time.sleep(0.05)
+    status = harness.diagnostics[-1].status[0]
+    assert status.name == 'perception: pipeline'
+    values = {kv.key: kv.value for kv in status.values}
+    assert values['messages'] == '30' and values['samples'] == '600'
