@@ -1,0 +1,1 @@
+"""Command-line tools: forte_train_force, forte_evaluate_slip."""

@@ -1,0 +1,116 @@
+"""forte_train_force and forte_evaluate_slip on generated data (contract formats)."""
+import json
+
+import numpy as np
+import pytest
+from perception_signals import FS, slip_bursts
+
+from forte_perception.calibration import load_calibration, make_rows
+from forte_perception.evaluation import (
+    LabelledRecording,
+    evaluate_slip,
+    save_labelled,
+    trial_metrics,
+)
+from forte_perception.force import ForceModel
+from forte_perception.tools import evaluate_slip as evaluate_tool
+from forte_perception.tools import train_force
+
+NAMES = ['left_distal', 'left_middle', 'left_root', 'right_distal', 'right_middle',
+         'right_root']
+
+
+def calibration_file(path, n_trials=12, seconds=4.0, seed=0):
+    """A contract-format dataset from a made-up sensor (force -> pressure, relaxation)."""
+    rng = np.random.default_rng(seed)
+    n = int(seconds * FS)
+    t = np.arange(n) / FS
+    frames, force, trial, indentor = [], [], [], []
+    for k in range(n_trials):
+        level = rng.uniform(0.5, 8.0)
+        f = level * np.clip((t - 1.0) / 0.5, 0, 1)
+        gains = np.array([0.03, 0.02, 0.01, 0.03, 0.02, 0.01]) * (1 + 0.2 * (k % 3))
+        s = 0.1 + f[:, None] * gains + rng.normal(size=(n, 6)) * 1e-3
+        frames.append(s.astype(np.float32))
+        force.append((f + rng.normal(size=n) * 0.01).astype(np.float32))
+        trial.append(np.full(n, k, np.int32))
+        indentor.append(np.full(n, k % 3, np.int32))
+    np.savez(path, frames=np.concatenate(frames), force=np.concatenate(force),
+             trial=np.concatenate(trial), indentor=np.concatenate(indentor),
+             indentor_names=np.array(['flat', 'round', 'edge']), fs=np.float64(FS),
+             channel_names=np.array(NAMES), tare_samples=np.int64(2000))
+    return path
+
+
+def test_rows_follow_the_contract(tmp_path):
+    ds = load_calibration(calibration_file(tmp_path / 'cal.npz', n_trials=2))
+    rows = make_rows(ds, stride=100)
+    assert rows.features.shape == (2 * 60, 24)  # samples 2000, 2100, ... 7900 per trial
+    trial0 = ds['frames'][:8000].astype(np.float64)
+    tared = trial0 - trial0[:2000].mean(axis=0)
+    # latest frame = median of the last 11 tared samples; 2.5 s mean over available rows
+    np.testing.assert_allclose(rows.features[0, :6], np.median(tared[1990:2001], axis=0),
+                               atol=1e-12)
+    assert rows.indentor_names == ('flat', 'round', 'edge')
+
+
+def test_bad_datasets_are_refused(tmp_path):
+    path = calibration_file(tmp_path / 'cal.npz', n_trials=2)
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    arrays['channel_names'] = np.array(NAMES[::-1])
+    np.savez(tmp_path / 'swapped.npz', **arrays)
+    with pytest.raises(ValueError, match='contract order'):
+        load_calibration(tmp_path / 'swapped.npz')
+    del arrays['force']
+    np.savez(tmp_path / 'missing.npz', **arrays)
+    assert train_force.main([str(tmp_path / 'missing.npz')]) == 2
+
+
+def test_train_force_tool(tmp_path, capsys):
+    path = calibration_file(tmp_path / 'cal.npz')
+    out = tmp_path / 'model.npz'
+    report = tmp_path / 'cv.json'
+    assert train_force.main([str(path), '-o', str(out), '--folds', '4', '--stride', '100',
+                             '--report', str(report)]) == 0
+    text = capsys.readouterr().out
+    assert '4-fold trial-wise CV, with history features' in text and 'latest frame only' in text
+    result = json.loads(report.read_text())
+    assert set(result['cv_history']['per_indentor']) == {'flat', 'round', 'edge'}
+    assert result['cv_history']['overall']['rmse'] < 1.0
+    model = ForceModel.load(out)
+    assert model.metadata['trials'] == 12 and len(model.metadata['dataset_sha256']) == 64
+    assert model.force_range[1] > 7.0
+
+
+def test_trial_metric_conventions():
+    m = trial_metrics(0, 0, 3, 5)
+    assert m['precision'] == 1.0 and m['recall'] == 0.0 and m['f1'] == 0.0
+    m = trial_metrics(8, 0, 2, 5)
+    assert m['accuracy'] == 13 / 15 and m['precision'] == 1.0 and m['recall'] == 0.8
+    assert m['f1'] == pytest.approx(2 * 0.8 / 1.8)
+    assert trial_metrics(0, 0, 0, 4)['recall'] == 1.0
+
+
+def test_evaluate_slip_on_labelled_trials(tmp_path, capsys):
+    n = 8000
+    slipping = slip_bursts(n, seed=1, onsets=(3000, 6000))
+    quiet = slip_bursts(n, seed=2, onsets=())
+    frames = np.concatenate([slipping, quiet]) + 0.1
+    trial = np.repeat([0, 1], n)
+    rec = LabelledRecording(frames, FS, np.array([3000, 6000]), trial)
+    result = evaluate_slip([rec])
+    assert result['trials']['tp'] == 1 and result['trials']['tn'] == 1
+    assert result['trials']['accuracy'] == 1.0 and result['missed_onsets'] == 0
+    assert len(result['latencies_s']) == 2 and max(result['latencies_s']) < 0.1
+    assert result['false_alarms'] == 0
+    # a label without a slip in the signal is a miss (FN); a burst without label an FP
+    wrong = LabelledRecording(frames, FS, np.array([n + 3000]), trial)
+    result = evaluate_slip([wrong])
+    assert result['trials']['fp'] == 1 and result['trials']['fn'] == 1
+    assert result['missed_onsets'] == 1 and result['false_alarms'] >= 2
+    path = tmp_path / 'rec.npz'
+    save_labelled(path, rec)
+    assert evaluate_tool.main([str(path), '--report', str(tmp_path / 'r.json')]) == 0
+    assert 'precision 1.000' in capsys.readouterr().out
+    assert evaluate_tool.main([str(path), '--hop', '0']) == 2
