@@ -163,46 +163,30 @@ def force_cross_validation(dataset: dict[str, np.ndarray], folds: int = 10, stri
                            seed: int = 0) -> dict[str, dict]:
     """10-fold trial-wise CV of the SVR force model, with and without history features.
 
-    Trials (not samples) are split into folds, so no trial is both trained and tested on.
+    Uses the perception package's trainer (:mod:`forte_perception.calibration`: per-trial
+    tare, median 11, 24 features, rows every ``stride`` samples; GroupKFold by trial, so
+    whole trials are held out) with its default SVR settings (C 10, epsilon 0.02 N).
 
     Returns
     -------
     dict
         ``{'with_history': {...}, 'without_history': {...}}``, each with ``rmse``, ``mae``
-        [N], ``per_indentor`` RMSE [N], ``points`` and ``trials``.
+        [N], ``per_indentor`` RMSE [N], ``points``, ``trials`` and ``force_range`` [N].
     """
-    from forte_driver.sim.dataset import trial_features
-    from forte_perception.force import ForceModel
+    from forte_perception.calibration import cross_validate, make_rows
 
-    x, y, trial = trial_features(dataset, stride)
-    starts = np.concatenate(([0], np.flatnonzero(np.diff(dataset['trial'])) + 1))
-    indentor_of = dict(zip(dataset['trial'][starts].tolist(),
-                           dataset['indentor'][starts].tolist(), strict=True))
-    indentor = np.array([indentor_of[int(t)] for t in trial])
-    trials = np.unique(trial)
-    rng = np.random.default_rng(seed)
-    shuffled = rng.permutation(trials)
-    fold_of = {int(t): i % folds for i, t in enumerate(shuffled)}
-    fold = np.array([fold_of[int(t)] for t in trial])
-    names = [str(n) for n in dataset['indentor_names']]
+    del seed  # GroupKFold is deterministic
+    rows = make_rows(dataset, stride=stride)
     results = {}
     for key, kind in (('with_history', 'history'), ('without_history', 'latest')):
-        predicted = np.full(y.shape, np.nan)
-        for k in range(folds):
-            test = fold == k
-            if not test.any():
-                continue
-            columns = x if kind == 'history' else x[:, :6]  # latest frame = first 6 columns
-            model = ForceModel.fit(columns[~test], y[~test], kind=kind)
-            predicted[test] = model.predict(x[test])
-        error = predicted - y
+        result = cross_validate(rows, folds=folds, kind=kind, C=10.0, epsilon=0.02)
         results[key] = {
-            'rmse': float(np.sqrt(np.mean(error ** 2))),
-            'mae': float(np.mean(np.abs(error))),
-            'per_indentor': {names[i]: float(np.sqrt(np.mean(error[indentor == i] ** 2)))
-                             for i in np.unique(indentor)},
-            'points': int(y.size), 'trials': int(trials.size),
-            'force_range': [float(y.min()), float(y.max())],
+            'rmse': result['overall']['rmse'], 'mae': result['overall']['mae'],
+            'per_indentor': {name: entry['rmse']
+                             for name, entry in result['per_indentor'].items()},
+            'per_fold_rmse': result['per_fold_rmse'],
+            'points': int(rows.force.size), 'trials': int(np.unique(rows.trial).size),
+            'force_range': [float(rows.force.min()), float(rows.force.max())],
         }
     return results
 
