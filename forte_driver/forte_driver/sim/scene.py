@@ -86,6 +86,7 @@ _SEATING_SPREAD = 0.08      # indentor height jitter on the finger, +- [-]
 _CENTRING_SPREAD = 1.5      # indentor centring jitter, +- [mm]
 _RIG_TEMPERATURE_SPREAD = 0.5   # indentor minus finger temperature, std [K]
 _RESIDUAL_RELAXATION = 1.0  # relaxation left from earlier grasps, up to [N]
+_LATERAL_TOLERANCE = 1e-4   # force imbalance ignored by the lateral placement [N]
 _STICK_SLIP_HOLD = 0.1      # a release labels stick-slip for this long [s]
 _RELEASE_COUPLING = 0.5     # share of a release step felt by the other finger [-]
 
@@ -586,7 +587,7 @@ class Scene:
                 resist = model.table_friction * max(
                     obj.mass * STANDARD_GRAVITY - self._shear[0] - self._shear[1], 0.0)
             imbalance = forces[0] - forces[1]
-            if abs(imbalance) > resist:
+            if abs(imbalance) > resist + _LATERAL_TOLERANCE:
                 target = imbalance - math.copysign(resist, imbalance)
                 total = stiffness[0] + stiffness[1]
                 if total > 0.0:
@@ -810,6 +811,8 @@ class Scene:
                 self._object_state = OBJECT_DROPPED
             elif self._lifted and self._height > _HELD_HEIGHT:
                 self._object_state = OBJECT_HELD
+            elif not self._lifted and not self._falling and self._height <= 0.0:
+                self._object_state = OBJECT_RESTING     # put back down on the table
         # --- slip classification and onset labels
         if self._falling:
             kind = SLIP_GROSS

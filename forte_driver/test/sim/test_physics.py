@@ -270,3 +270,14 @@ def test_slip_characterisation_angles_match_the_paper(name, paper_grasp, paper_z
     assert scene.stable_grasp_angle() <= scene.slip_test_angle < scene.theta_zero_force
     with pytest.raises(ValueError, match='slip_characterization'):
         make_scene('slip_characterization', object_name='soda_can')
+
+
+def test_putting_a_held_object_back_down_leaves_it_resting():
+    scene = make_scene('grasp', object_name='tomato_soup_can', seed=2)
+    _hold(scene, 0.5, scene.initial_angle)
+    _hold(scene, 1.5, 0.2)
+    _, truth = _hold(scene, 4.0, 0.2, 0.005)
+    assert truth.object_state[-1] == OBJECT_HELD
+    _, truth = _hold(scene, 5.0, 0.2, -0.005)
+    assert truth.lift_height[-1] == 0.0 and truth.object_height[-1] == 0.0
+    assert truth.object_state[-1] == OBJECT_RESTING
