@@ -84,7 +84,8 @@ class ForceFeatures:
 
     def reset(self) -> None:
         """Forget every sample (the means restart from the next sample)."""
-        self._buffer = np.zeros((0, N_CHANNELS))
+        self._ring = np.zeros((self._keep, N_CHANNELS))  # sample t at row t % keep
+        self._last = np.full(N_CHANNELS, np.nan)
         self._samples = 0
         self._sums = [np.zeros(N_CHANNELS) for _ in self.lengths]
 
@@ -97,10 +98,19 @@ class ForceFeatures:
         """Feature vector (24,) at the latest sample; NaN if no sample yet."""
         if self._samples == 0:
             return np.full(4 * N_CHANNELS, np.nan)
-        out = [self._buffer[-1]]
+        out = [self._last]
         for length, total in zip(self.lengths, self._sums, strict=True):
             out.append(total / min(length, self._samples))
         return np.concatenate(out)
+
+    def _past(self, a: int, b: int) -> np.ndarray:
+        """Stored samples with absolute indices a .. b-1 (all < samples_seen), (b - a, 6)."""
+        if b <= a:
+            return np.zeros((0, N_CHANNELS))
+        i, j = a % self._keep, (b - 1) % self._keep + 1
+        if i < j:
+            return self._ring[i:j]
+        return np.concatenate([self._ring[i:], self._ring[:j]], axis=0)
 
     def update(self, frames: np.ndarray, every: int = 1, offset: int = 0
                ) -> tuple[np.ndarray, np.ndarray]:
@@ -121,37 +131,53 @@ class ForceFeatures:
         index : ndarray, shape (r,), int64
             Absolute sample indices of the returned rows.
         features : ndarray, shape (r, 24)
+
+        Notes
+        -----
+        Work per call is O(n) plus one window sum per window length crossed (O(1) per
+        sample amortised); past samples live in a ring buffer of 10 s.
         """
         x = np.asarray(frames, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != N_CHANNELS:
             raise ValueError(f'frames must have shape (n, {N_CHANNELS}), got {x.shape}')
-        if not np.isfinite(x).all():
+        if not np.isfinite(np.add.reduce(x, axis=None)) and not np.isfinite(x).all():
             raise ValueError('non-finite input (NaN or inf); chunk rejected, state unchanged')
         n = x.shape[0]
         t0 = self._samples
-        ext = np.concatenate([self._buffer, x], axis=0)
-        h = self._buffer.shape[0]  # ext[h + i] is absolute sample t0 + i
         abs_idx = t0 + np.arange(n)
         sel = np.nonzero((abs_idx + offset + 1) % int(every) == 0)[0]
         feats = np.empty((sel.size, 4 * N_CHANNELS))
         feats[:, :N_CHANNELS] = x[sel]
         for w, length in enumerate(self.lengths):
-            total = self._running(ext, h, t0, n, length, w)  # (n, 6) window sums
+            total = self._running(x, t0, length, w)  # (n, 6) window sums
             count = np.minimum(abs_idx[sel] + 1, length)[:, None]
             feats[:, N_CHANNELS * (w + 1):N_CHANNELS * (w + 2)] = total[sel] / count
+        # store the new samples in the ring
+        if n:
+            keep = self._keep
+            tail = x[-keep:]
+            start = t0 + n - tail.shape[0]
+            i = start % keep
+            first = min(tail.shape[0], keep - i)
+            self._ring[i:i + first] = tail[:first]
+            self._ring[:tail.shape[0] - first] = tail[first:]
+            self._last = x[-1].copy()
         self._samples += n
-        self._buffer = ext[-self._keep:].copy()
         return abs_idx[sel].astype(np.int64), feats
 
-    def _running(self, ext: np.ndarray, h: int, t0: int, n: int, length: int,
-                 which: int) -> np.ndarray:
+    def _running(self, x: np.ndarray, t0: int, length: int, which: int) -> np.ndarray:
         """Window sums at every new sample; resynchronised at absolute multiples of length."""
+        n = x.shape[0]
         abs_idx = t0 + np.arange(n)
-        # increment at sample t: x[t] - x[t - length] (x before the reset counts as absent)
-        old_pos = h + np.arange(n) - length
-        inc = ext[h:h + n].copy()
-        has_old = abs_idx - length >= 0
-        inc[has_old] -= ext[old_pos[has_old]]
+        # increment at sample t: x[t] - x[t - length] (samples before the reset are absent)
+        inc = x.copy()
+        old_lo = max(0, t0 - length)  # absolute range of the old samples, before the chunk
+        old_hi = min(t0, t0 + n - length)
+        if old_hi > old_lo:
+            first = old_lo + length - t0  # chunk row whose old sample is old_lo
+            inc[first:first + old_hi - old_lo] -= self._past(old_lo, old_hi)
+        if n > length:  # old samples inside the chunk itself
+            inc[length:] -= x[:n - length]
         out = np.empty((n, N_CHANNELS))
         cur = self._sums[which]
         resync = np.nonzero(abs_idx % length == length - 1)[0]
@@ -162,8 +188,11 @@ class ForceFeatures:
                 out[pos:nxt] = np.cumsum(seg, axis=0)[1:]
                 cur = out[nxt - 1]
             if nxt < n:
-                e = h + nxt  # window ext[e - length + 1 .. e], fully present
-                out[nxt] = _window_sum(ext[e - length + 1:e + 1])
+                t = t0 + nxt  # window t - length + 1 .. t, fully present
+                lo = t - length + 1
+                window = np.concatenate([self._past(lo, min(t0, t + 1)),
+                                         x[max(0, lo - t0):nxt + 1]], axis=0)
+                out[nxt] = _window_sum(window)
                 cur = out[nxt]
                 pos = nxt + 1
         self._sums[which] = cur.copy()
@@ -263,6 +292,17 @@ class ForceModel:
     features: str = 'history'
     metadata: dict = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        self._cache()
+
+    def _cache(self) -> None:
+        """Derived arrays used by every prediction."""
+        self.support_vectors = np.ascontiguousarray(self.support_vectors, np.float64)
+        self._sv_sq = np.einsum('ij,ij->i', self.support_vectors, self.support_vectors)
+        width = self.feature_max - self.feature_min
+        self._valid_lo = self.feature_min - self.range_margin * width
+        self._valid_hi = self.feature_max + self.range_margin * width
+
     @property
     def n_features(self) -> int:
         """Input dimension d (24 for 'history', 6 for 'latest')."""
@@ -341,7 +381,7 @@ class ForceModel:
         z = (x - self.scaler_mean) / self.scaler_scale
         sv = self.support_vectors
         out = np.empty(z.shape[0])
-        sv_sq = np.einsum('ij,ij->i', sv, sv)
+        sv_sq = self._sv_sq
         block = 4096
         for i in range(0, z.shape[0], block):
             zb = z[i:i + block]
@@ -353,11 +393,8 @@ class ForceModel:
     def valid(self, features: np.ndarray) -> np.ndarray:
         """True where every feature is finite and inside the (widened) training range, (n,)."""
         x = self.select(features)
-        width = self.feature_max - self.feature_min
-        lo = self.feature_min - self.range_margin * width
-        hi = self.feature_max + self.range_margin * width
         with np.errstate(invalid='ignore'):
-            inside = (x >= lo) & (x <= hi)
+            inside = (x >= self._valid_lo) & (x <= self._valid_hi)
         return np.isfinite(x).all(axis=1) & inside.all(axis=1)
 
     def predict(self, features: np.ndarray, return_valid: bool = False
@@ -378,6 +415,16 @@ class ForceModel:
         if return_valid:
             return force, self.valid(x)
         return force
+
+    def predict_one(self, features: np.ndarray) -> tuple[float, bool]:
+        """Force [N] and validity of one feature vector (24,) (or (6,)); fast path.
+
+        Same arithmetic as :meth:`predict` on a single row.
+        """
+        x = self.select(features)
+        if not np.isfinite(x).all():
+            return float('nan'), False
+        return float(np.clip(self.decision(x)[0], *self.force_range)), bool(self.valid(x)[0])
 
     # -- persistence
     def save(self, path: str | Path) -> None:

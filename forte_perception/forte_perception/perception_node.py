@@ -24,9 +24,10 @@ Header stamp of a state = sample time of the latest input sample used (input sta
 (sample_count - 1) * sample_period); ``sample_index`` counts the samples received since
 the pipeline (re)started (lost samples are not counted).
 
-Threading: frames, timers and parameter changes run in one mutually exclusive group; the
-services in a reentrant group (a tare request waits for its quiet period without blocking
-the frames). Run it in a MultiThreadedExecutor (``main`` does).
+Threading: ``main`` spins a SingleThreadedExecutor (the cheapest per message). The tare
+service is a coroutine that waits for its quiet period on a future completed by the frames
+callback, so it never blocks the frames. A lock guards the pipeline, so the node also works
+in a MultiThreadedExecutor.
 """
 from __future__ import annotations
 
@@ -45,9 +46,10 @@ from rcl_interfaces.msg import (
     SetParametersResult,
 )
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.task import Future
 from std_srvs.srv import Trigger
 
 from forte_msgs.msg import TactileFrames, TactileState
@@ -159,7 +161,7 @@ class PerceptionNode(Node):
         self._gap_offset = 0  # gaps counted by pipelines before a reset
         self._last_input = time.monotonic()
         self._stale_published = False
-        self._tare_event = threading.Event()
+        self._tare_future: Future | None = None
         self.counters = {
             'messages': 0, 'samples': 0, 'sequence_gaps': 0, 'lost_samples': 0,
             'sequence_resets': 0, 'rejected_messages': 0, 'slip_messages': 0,
@@ -314,8 +316,10 @@ class PerceptionNode(Node):
             self._last_stamp = (stamp_ns, frame_id)
             if out.slip:
                 self.counters['slip_messages'] += 1
-            if self._pipeline.tare_result is not None:
-                self._tare_event.set()
+            result = self._pipeline.tare_result
+            if result is not None and self._tare_future is not None and \
+                    not self._tare_future.done():
+                self._tare_future.set_result(result)
         self._state_pub.publish(state)
         self.counters['published'] += 1
         self._processing.append(time.perf_counter() - t0)
@@ -356,25 +360,40 @@ class PerceptionNode(Node):
         self._state_pub.publish(state)
 
     # ------------------------------------------------------------------ services
-    def _on_tare(self, request: Tare.Request, response: Tare.Response) -> Tare.Response:
+    async def _on_tare(self, request: Tare.Request, response: Tare.Response) -> Tare.Response:
+        """Start a tare; the response is sent when the quiet period is complete (the
+        coroutine waits on a future completed by the frames callback, so the executor keeps
+        processing frames meanwhile)."""
         duration = float(request.duration)
         with self._lock:
             if duration == 0.0:
                 duration = float(self._pipeline.config.tare_duration)
-            self._tare_event.clear()
             ok, reason = self._pipeline.request_tare(duration)
+            if ok:
+                if self._tare_future is not None and not self._tare_future.done():
+                    self._tare_future.set_result(None)  # superseded
+                future = Future()
+                self._tare_future = future
         if not ok:
             response.success = False
             response.message = reason
-            response.baseline = []
             return response
-        deadline = duration + 2.0 + 5.0 * self._stale_timeout
-        if not self._tare_event.wait(timeout=deadline):
+        limit = duration + 2.0 + 5.0 * self._stale_timeout
+
+        def expire() -> None:
+            timer.cancel()
+            if not future.done():
+                future.set_result(None)
+
+        timer = self.create_timer(limit, expire, callback_group=self._group)
+        result = await future
+        timer.cancel()
+        self.destroy_timer(timer)
+        if result is None:
             response.success = False
-            response.message = f'no complete quiet period within {deadline:.1f} s (no input?)'
+            response.message = (f'no complete quiet period within {limit:.1f} s (no input, '
+                                'or superseded by another request)')
             return response
-        with self._lock:
-            result = self._pipeline.tare_result
         response.success = bool(result.success)
         response.message = result.message
         response.baseline = [float(v) for v in result.baseline] if result.success else []
@@ -435,7 +454,7 @@ def main(args=None) -> None:
     node = None
     try:
         node = PerceptionNode()
-        executor = MultiThreadedExecutor(num_threads=2)
+        executor = SingleThreadedExecutor()
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -236,6 +236,7 @@ class PerceptionPipeline:
         self._force_features = ForceFeatures(c.fs)
         self._contact_history = np.zeros((0, N_CHANNELS))
         self._baseline: np.ndarray | None = None
+        self._baseline_tiled = np.zeros(4 * N_CHANNELS)
         self._samples = 0
         self._gaps = 0
         self._rejected = 0
@@ -306,7 +307,11 @@ class PerceptionPipeline:
         b = np.asarray(baseline, dtype=np.float64)
         if b.shape != (N_CHANNELS,) or not np.isfinite(b).all():
             raise ValueError(f'baseline must be 6 finite values, got {b}')
-        self._baseline = b.copy()
+        self._set_baseline(b.copy())
+
+    def _set_baseline(self, baseline: np.ndarray) -> None:
+        self._baseline = baseline
+        self._baseline_tiled = np.tile(baseline, 4)
 
     # -- processing
     def process(self, frames: np.ndarray) -> PerceptionOutput:
@@ -367,14 +372,19 @@ class PerceptionPipeline:
         first_index = self._samples
         self._samples += n
         filtered = self._median.update(raw)
-        # contact per sample
-        flags = contact_flags(filtered, self._contact_history, c.contact_window,
-                              c.contact_threshold)
+        # contact: per sample while a tare collects, else at the last sample only
         keep = c.contact_window - 1
-        self._contact_history = np.concatenate([self._contact_history, filtered])[-keep:]
-        out.contact = flags[-1].copy()
-        # tare collection (raw samples, aborted by contact)
-        self._collect_tare(raw, flags)
+        ext = np.concatenate([self._contact_history, filtered])
+        if self._tare_buffer is not None:
+            flags = contact_flags(filtered, self._contact_history, c.contact_window,
+                                  c.contact_threshold)
+            out.contact = flags[-1].copy()
+            self._collect_tare(raw, flags)
+        else:
+            window = ext[-c.contact_window:]
+            exceed = (window.max(axis=0) - window.min(axis=0)) > c.contact_threshold
+            out.contact = np.array([exceed[:3].any(), exceed[3:].any()])
+        self._contact_history = ext[-keep:]
         # slip on the filtered, untared signal
         res = self._slip.update(filtered)
         slip_any = bool(res.slip.any())
@@ -401,9 +411,8 @@ class PerceptionPipeline:
     def _estimate(self, features: np.ndarray) -> tuple[float, bool]:
         if self.model is None or self._baseline is None:
             return float('nan'), False
-        v = features - np.tile(self._baseline, 4)
-        force, valid = self.model.predict(v[None], return_valid=True)
-        return float(force[0]), bool(valid[0])
+        v = features - self._baseline_tiled
+        return self.model.predict_one(v[None])
 
     def _collect_tare(self, raw: np.ndarray, flags: np.ndarray) -> None:
         if self._tare_buffer is None:
@@ -426,7 +435,7 @@ class PerceptionPipeline:
         if have < self._tare_target:
             return
         samples = np.concatenate(self._tare_buffer)[:self._tare_target]
-        self._baseline = samples.mean(axis=0)
+        self._set_baseline(samples.mean(axis=0))
         self.tare_result = TareResult(True, f'baseline from {samples.shape[0]} samples',
                                       self._baseline.copy())
         self._tare_buffer = None
