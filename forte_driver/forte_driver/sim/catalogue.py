@@ -232,15 +232,16 @@ class IndentorSpec:
     contact_spread: float
 
 
-#: The 6 indentor shapes of the calibration rig (paper Fig. 3c; shapes are estimates).
+#: The 6 indentor shapes of the calibration rig (paper Fig. 3c; shapes are estimates). The
+#: widths make a full close squeeze about 8 N, the paper's force range.
 INDENTORS: dict[str, IndentorSpec] = {
     spec.name: spec for spec in (
-        IndentorSpec('flat_wide', 0.044, 0.45, 0.45),
-        IndentorSpec('flat_narrow', 0.046, 0.35, 0.20),
-        IndentorSpec('cylinder_large', 0.048, 0.40, 0.30),
-        IndentorSpec('cylinder_small', 0.050, 0.30, 0.15),
-        IndentorSpec('sphere', 0.052, 0.25, 0.12),
-        IndentorSpec('edge', 0.054, 0.20, 0.08),
+        IndentorSpec('flat_wide', 0.041, 0.45, 0.45),
+        IndentorSpec('flat_narrow', 0.043, 0.35, 0.20),
+        IndentorSpec('cylinder_large', 0.045, 0.40, 0.30),
+        IndentorSpec('cylinder_small', 0.0465, 0.30, 0.15),
+        IndentorSpec('sphere', 0.048, 0.25, 0.12),
+        IndentorSpec('edge', 0.050, 0.20, 0.08),
     )
 }
 
