@@ -196,9 +196,13 @@ def test_hardware_graph_on_emulated_devices(watcher, tmp_path):
 @pytest.mark.slow
 def test_sim_graph_serves_a_grasp(watcher, tmp_path):
     need_graph('sim')
+    from forte_bringup.closed_loop import default_force_model
     from forte_msgs.action import Grasp
 
-    bringup = Bringup('sim', {'object': 'soda_can'}, log_dir=tmp_path / 'logs', echo=None)
+    model = tmp_path / 'force_model.npz'
+    default_force_model().save(model)  # the simulated-rig model (cached across runs)
+    bringup = Bringup('sim', {'object': 'soda_can', 'force_model': str(model)},
+                      log_dir=tmp_path / 'logs', echo=None)
     bringup.start(timeout=60.0)
     try:
         assert wait_for(lambda: watcher.counts['tactile/state'] > 20, 30.0), watcher.counts
@@ -214,8 +218,10 @@ def test_sim_graph_serves_a_grasp(watcher, tmp_path):
         result_future = handle.get_result_async()
         assert wait_for(result_future.done, 120.0), watcher.last_grasp_state
         result = result_future.result().result
-        assert result.outcome != Grasp.Result.NONE
+        assert result.outcome == Grasp.Result.LIFTED, (result.outcome, result.message)
         assert feedback, 'no action feedback'
+        assert result.lift_height == pytest.approx(0.01, abs=0.002)
+        assert watcher.last_grasp_state.last_outcome == Grasp.Result.LIFTED
         assert result.duration > 0.0
         bringup.check_children()
     finally:
