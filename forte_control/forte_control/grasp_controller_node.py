@@ -110,6 +110,8 @@ PARAMETER_DOCS: dict[str, tuple[str, tuple[float, float] | None]] = {
     'release_tolerance': ('joint angle tolerance that ends RELEASING [rad]', (0.0, 1.0)),
     'release_timeout': ('longest RELEASING [s]', (0.0, 60.0)),
     'max_force': ('grip force cap [N]', (0.0, HARD_MAX_FORCE)),
+    'force_limit_confirm': ('force above the cap this long before FORCE_LIMIT (no tightening '
+                            'meanwhile) [s]', (0.0, 0.2)),
     'max_tightening': ('cap on total slip tightening [rad]', (0.0, HARD_MAX_TIGHTENING)),
     'max_lift_distance': ('lift height cap [m]', (0.0, HARD_MAX_LIFT_DISTANCE)),
     'max_lift_speed': ('largest lift speed a goal may request [m/s]', (0.0, HARD_MAX_LIFT_SPEED)),

@@ -150,6 +150,7 @@ class ControllerParams:
     release_timeout: float = 3.0            # longest RELEASING [s]
     # safety
     max_force: float = 8.0                  # force cap [N] (top of the force model range)
+    force_limit_confirm: float = 0.03       # force above the cap this long -> fault [s]
     max_tightening: float = 20 * PAPER_SLIP_INCREMENT  # cap on total slip tightening [rad]
     max_lift_distance: float = 0.2          # lift cap [m]
     max_lift_speed: float = 0.02            # largest lift speed a goal may ask [m/s]
@@ -184,6 +185,7 @@ class ControllerParams:
         check('min_angle', 0.0, HARD_MAX_ANGLE, low_open=False)
         check('open_angle', 0.0, HARD_MAX_ANGLE)
         check('max_force', 0.0, HARD_MAX_FORCE)
+        check('force_limit_confirm', 0.0, 0.2, low_open=False)
         check('initial_force', 0.0, HARD_MAX_FORCE)
         check('max_lift_speed', 0.0, HARD_MAX_LIFT_SPEED)
         check('lift_speed', 0.0, HARD_MAX_LIFT_SPEED)
@@ -394,6 +396,7 @@ class _Grasp:
     contact_force: float | None = None
     target_force: float = 0.0
     force_invalid_since: float | None = None
+    over_force_since: float | None = None
     at_min_since: float | None = None
     last_tightening_time: float = -math.inf
     last_slip_stamp: float = -math.inf
@@ -737,9 +740,19 @@ class GraspStateMachine:
                             f'{p.invalid_input_timeout:g} s')
                 return False
             if valid and perception.force_valid and perception.force > p.max_force:
-                self._fault(FaultFlag.FORCE_LIMIT, f'force {perception.force:.3f} N above the '
-                            f'cap {p.max_force:g} N', outcome=Outcome.FORCE_LIMIT)
+                if grasp.over_force_since is None:
+                    grasp.over_force_since = now
+                if now - grasp.over_force_since >= p.force_limit_confirm:
+                    self._fault(FaultFlag.FORCE_LIMIT, f'force {perception.force:.3f} N above '
+                                f'the cap {p.max_force:g} N for {p.force_limit_confirm:g} s',
+                                outcome=Outcome.FORCE_LIMIT)
+                    return False
+                # not confirmed yet (a single estimate can spike): never tighten meanwhile
+                if state in (GraspState.CLOSING, GraspState.LOADING):
+                    self._hold_ramp(now)
+                self._message = f'force {perception.force:.3f} N above the cap, holding'
                 return False
+            grasp.over_force_since = None
 
         # -- the phases ------------------------------------------------------------------
         if state == GraspState.CLOSING:

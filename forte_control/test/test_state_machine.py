@@ -392,6 +392,8 @@ def test_force_limit_fault_and_reset_refused_while_above():
     rig.to_lifting()
     rig.force = 8.5
     out = rig.tick()
+    assert out.state == GraspState.LIFTING  # 30 ms confirmation
+    out = rig.run_until(lambda o: o.state != GraspState.LIFTING, limit=0.1)
     assert out.state == GraspState.FAULT and out.outcome == Outcome.FORCE_LIMIT
     assert out.fault_flags == FaultFlag.FORCE_LIMIT and out.arm_velocity == 0.0
     held = out.servo.position
@@ -644,3 +646,26 @@ def test_contact_and_force_at_the_first_step_then_slip():
     out = rig.tick()
     assert out.slip_reacted
     assert out.servo.position == pytest.approx(0.5 - PAPER_SLIP_INCREMENT)
+
+
+def test_force_spike_above_cap_holds_without_fault_and_without_tightening():
+    rig = Rig()
+    start = rig.to_lifting()
+    rig.force = 8.5
+    rig.slip = True  # a slip during the spike must not tighten beyond the cap
+    out = rig.tick()
+    assert out.state == GraspState.LIFTING and not out.slip_reacted
+    assert out.servo.position == start.servo.position and 'above the cap' in out.message
+    rig.force = 1.0
+    out = rig.tick()
+    assert out.state == GraspState.LIFTING and out.fault_flags == FaultFlag.NONE
+
+
+def test_force_limit_immediate_when_confirmation_is_zero():
+    rig = Rig(replace(ControllerParams(), force_limit_confirm=0.0))
+    assert rig.start()[0]
+    rig.tick()
+    rig.force = 8.5
+    rig.contact = (True, True)
+    out = rig.tick()
+    assert out.state == GraspState.FAULT and out.outcome == Outcome.FORCE_LIMIT
