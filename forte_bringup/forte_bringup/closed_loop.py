@@ -304,7 +304,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
               params: ControllerParams | None = None, *, trial: int = 0,
               goal: GraspGoal | None = None, model=None, pipeline_config=None,
               chunk_samples: int = 20, warmup: float = 0.6, tare_duration: float = 0.5,
-              settle: float = 1.0, max_duration: float = 60.0, success_height: float = 0.01,
+              settle: float = 1.0, max_duration: float = 60.0, success_height: float = 0.005,
               record_traces: bool = False) -> TrialResult:
     """Run one closed-loop grasp trial of ``object_name`` with ``controller``.
 
