@@ -227,7 +227,7 @@ def bench_node(quick: bool = False) -> None:
     print('\n## Perception node over DDS (node in its own process, 20-sample messages at '
           '100 Hz)')
     x = signal_source(120.0)
-    seconds = 8.0 if quick else 15.0
+    seconds = 8.0 if quick else 10.0
     tmp = Path(tempfile.mkdtemp(prefix='forte_bench_node_'))
     model = tmp / 'force.npz'
     make_model(model)

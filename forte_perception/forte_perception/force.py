@@ -324,7 +324,8 @@ class ForceModel:
         C, epsilon, gamma
             SVR hyper-parameters (epsilon in N).
         force_range : (float, float), optional
-            Output clip range [N]; default: the training force range.
+            Output clip range [N]; default: 0 (a grip force is never negative) to the largest
+            training force.
         range_margin : float
             Allowed excursion beyond the training input range, fraction of its width.
         kind : {'history', 'latest'}
@@ -356,7 +357,7 @@ class ForceModel:
             'train_force_min': float(y.min()), 'train_force_max': float(y.max()),
             'sklearn_version': _sklearn_version(),
         })
-        frange = force_range if force_range is not None else (float(y.min()), float(y.max()))
+        frange = force_range if force_range is not None else (0.0, float(y.max()))
         return cls(
             scaler_mean=scaler.mean_.copy(), scaler_scale=scaler.scale_.copy(),
             support_vectors=np.ascontiguousarray(svr.support_vectors_),

@@ -155,7 +155,9 @@ class SlipFeatures:
     psd_max_db : ndarray, shape (m, 6)
         Band maximum of ``10*log10(P + eps)`` per channel [dB re 1/Hz].
     channel_variance : ndarray, shape (m, 6)
-        Per-channel moving variance (0 unless monotonic rise) [dB^2].
+        Per-channel moving variance (0 unless the channel rises monotonically) where both
+        finger groups have a rising channel; 0 elsewhere, where the alpha gate zeroes the
+        group averages anyway [dB^2].
     finger_variance : ndarray, shape (m, 2)
         Finger-group average moving variance after the alpha gate (left, right) [dB^2].
     slip : ndarray, shape (m,), bool
@@ -232,7 +234,14 @@ def _decide_rest(h: list[np.ndarray], min_diff: np.ndarray, params: SlipParams
     md = min_diff.reshape(shape[0], -1)
     m = md.shape[1]
     rising = md > params.delta
-    cols = np.nonzero(rising.any(axis=0))[0]
+    # the group averages pass the alpha gate only if both groups have a rising channel
+    # (a channel's variance is 0 unless it rises; alpha > 0): compute variances there only
+    if params.alpha > 0.0:
+        both = rising[0] | rising[1] | rising[2]
+        both &= rising[3] | rising[4] | rising[5]
+    else:
+        both = np.ones(m, bool)
+    cols = np.nonzero(both)[0]
     channel_variance = np.zeros((N_CHANNELS, m))
     finger = np.zeros((2, m))
     finger_raw = np.zeros((2, m))
@@ -251,7 +260,7 @@ def _decide_rest(h: list[np.ndarray], min_diff: np.ndarray, params: SlipParams
         sq = (hs[0] - mean) ** 2
         for i in range(1, v):
             sq = sq + (hs[i] - mean) ** 2
-        cv = np.where(rising[:, cols], sq / v, 0.0)
+        cv = np.where(rising[:, cols] & both[cols], sq / v, 0.0)
         left = (cv[0] + cv[1] + cv[2]) / 3.0
         right = (cv[3] + cv[4] + cv[5]) / 3.0
         gate = (left >= params.alpha) & (right >= params.alpha)
@@ -454,6 +463,9 @@ class SlipDetector:
         self._sin_t = np.ascontiguousarray(np.sin(angle).T)
         unit = 2.0 * np.pi * np.arange(n) / n
         self._unit_conj = np.cos(unit) + 1j * np.sin(unit)  # exp(+2i pi p / N)
+        # exp(+2i pi k s / N) for every needed bin k and window start s mod N, (K, N)
+        self._rotation = self._unit_conj[np.outer(self._bins, np.arange(n)) % n]
+        self._rotation_conj = np.ascontiguousarray(self._rotation.conj())
         # updates per vectorised block: small enough to stay in cache and to keep the
         # (6 block, hop) @ (hop, 2K) product below OpenBLAS' multithreading threshold
         # (threads cost more than they bring at this size); no effect on the results
@@ -586,10 +598,9 @@ class SlipDetector:
         np.matmul(diff.reshape(c * mb, hop), self._hop_dft_interleaved, out=prod)
         g = prod.view(np.complex128).reshape(c, mb, k).transpose(2, 0, 1)  # (K, 6, mb)
         s_mod = (ends - n + 1) % n  # window start s mod N
-        ph = (self._bins[:, None] * s_mod[None, :]) % n  # (K, mb)
-        rot = self._unit_conj[ph]  # R = exp(+2i pi k s / N), (K, mb)
+        rot = self._rotation[:, s_mod]  # R = exp(+2i pi k s / N), (K, mb)
         inc = self._work('inc', (k, c, mb), np.complex128)
-        np.multiply(g, rot.conj()[:, None, :], out=inc)
+        np.multiply(g, self._rotation_conj[:, s_mod][:, None, :], out=inc)
         # running sums between resync points, continuing from the stored state:
         # inc[pos] += cur, then a sequential cumulative sum into a
         a = self._work('a', (k, c, mb), np.complex128)

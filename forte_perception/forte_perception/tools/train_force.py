@@ -48,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--gamma', default='scale', help="RBF gamma or 'scale'")
     parser.add_argument('--force-range', type=float, nargs=2, default=None,
                         metavar=('LOW', 'HIGH'),
-                        help='output clip range [N] (default: training force range)')
+                        help='output clip range [N] (default: 0 to the largest training force)')
     parser.add_argument('--range-margin', type=float, default=0.05,
                         help='allowed excursion beyond the training input range (fraction)')
     parser.add_argument('--report', default=None, help='write the CV results as JSON')
