@@ -44,7 +44,7 @@ def test_forte_lifts_a_slippery_object_that_no_slip_drops(model, slippery_forte)
                               for r in slippery_forte]
     for forte in lifted:
         assert forte.object_state == 'HELD' and forte.outcome == 'LIFTED'
-        assert forte.final_height >= 0.01
+        assert forte.final_height >= 0.005
         assert forte.slip_events >= 1 and forte.slip_true and forte.slip_predicted
         assert forte.tightening == pytest.approx(forte.slip_events * PAPER_SLIP_INCREMENT)
     for seed, forte in zip(SLIPPERY_SEEDS, slippery_forte):
