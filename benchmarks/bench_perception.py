@@ -239,6 +239,7 @@ def bench_force_models(rows, source: str) -> None:
     errors = {name: [] for name, _ in variants}
     errors['latest frame only (6)'] = []
     lat = {name: [] for name in errors}
+    batch = {name: [] for name in errors}
     n_sv = {name: [] for name in errors}
     for train, test in GroupKFold(5).split(feats, target, groups):
         full = ForceModel.fit(feats[train], target[train], epsilon=0.02,
@@ -248,19 +249,23 @@ def bench_force_models(rows, source: str) -> None:
                 max(2, int(frac * full.support_vectors.shape[0])))
             errors[name].append(m.predict(feats[test]) - target[test])
             lat[name].append(_latency(m, feats[test][:200]))
+            batch[name].append(_batch_cost(m, feats[test]))
             n_sv[name].append(m.support_vectors.shape[0])
         base = ForceModel.fit(feats[train][:, :6], target[train], kind='latest', epsilon=0.02,
                               force_range=(0.0, 10.0))
         errors['latest frame only (6)'].append(base.predict(feats[test]) - target[test])
         lat['latest frame only (6)'].append(_latency(base, feats[test][:200]))
+        batch['latest frame only (6)'].append(_batch_cost(base, feats[test]))
         n_sv['latest frame only (6)'].append(base.support_vectors.shape[0])
     print(f'{"model":30s}{"SVs":>7s}{"RMSE [N]":>10s}{"MAE [N]":>10s}'
-          f'{"latency p50 [us]":>18s}')
+          f'{"one [us]":>10s}{"batch [us/row]":>16s}')
     for name in errors:
         e = np.concatenate(errors[name])
         print(f'{name:30s}{np.mean(n_sv[name]):7.0f}{np.sqrt(np.mean(e ** 2)):10.3f}'
-              f'{np.mean(np.abs(e)):10.3f}{np.median(lat[name]) * 1e6:18.1f}')
-    print('(latency: one prediction of one feature vector, ForceModel.predict_one)')
+              f'{np.mean(np.abs(e)):10.3f}{np.median(lat[name]) * 1e6:10.1f}'
+              f'{np.median(batch[name]) * 1e6:16.2f}')
+    print('(one: latency p50 of one prediction, ForceModel.predict_one, mostly call overhead; '
+          'batch: cost per row of ForceModel.predict on a held-out fold)')
 
 
 def _latency(model: ForceModel, rows: np.ndarray) -> float:
@@ -270,6 +275,11 @@ def _latency(model: ForceModel, rows: np.ndarray) -> float:
         model.predict_one(r)
         times.append(time.perf_counter() - t0)
     return float(np.median(times))
+
+
+def _batch_cost(model: ForceModel, rows: np.ndarray) -> float:
+    """CPU seconds per row of one batch prediction."""
+    return cpu_time(lambda: model.predict(rows), 3) / rows.shape[0]
 
 
 def main() -> None:
