@@ -26,6 +26,7 @@ the clock; ``autostart`` (default true, this is a simulator) does both at start-
 from __future__ import annotations
 
 import math
+import threading
 import time
 
 import rclpy
@@ -61,8 +62,7 @@ from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileFrames
 LEFT_JOINT = 'forte_left_finger_joint'
 RIGHT_JOINT = 'forte_right_finger_joint'
 MAX_CATCH_UP = 0.5          # largest simulated lag made up in one timer tick [s]
-FAST_BUDGET = 0.02          # wall time per production burst at real_time_factor 0 [s]
-FAST_BATCHES = 40           # at most this many batches per burst (< reliable queue depth)
+FAST_PERIOD = 1e-4          # timer period at real_time_factor 0 (free running) [s]
 RELIABLE_FRAMES_DEPTH = 1000    # reliable frames queue: 10 s of batches for slow readers
 
 
@@ -79,6 +79,9 @@ class SimNode(LifecycleNode):
         self._declare_parameters()
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._scene: Scene | None = None
+        # transitions may be triggered from another thread than the executor's: they and
+        # the production of a batch exclude each other, so no batch is half published
+        self._production_lock = threading.Lock()
         self._frames_publisher = None
         self._joint_publisher = None
         self._truth_publisher = None
@@ -202,16 +205,26 @@ class SimNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        with self._production_lock:
+            return self._activate(state)
+
+    def _activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        now_ns = self.get_clock().now().nanoseconds
         if self._origin_ns == 0:
-            self._origin_ns = self.get_clock().now().nanoseconds
+            self._origin_ns = now_ns
+        elif self._clock_publisher is None:
+            # resumed on the wall clock: the next sample is stamped now (the pause is not
+            # simulated); with /clock the simulation time simply paused
+            self._origin_ns = now_ns - round(self._scene.sample_index * SAMPLE_PERIOD * 1e9)
         self._anchor_wall = time.monotonic()
         self._anchor_samples = self._scene.sample_index
         self._restart_timer(float(self.get_parameter('real_time_factor').value))
         return super().on_activate(state)
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
-        self._stop_timer()
-        return super().on_deactivate(state)
+        with self._production_lock:
+            self._stop_timer()
+            return super().on_deactivate(state)
 
     def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
         self._stop_timer()
@@ -235,7 +248,8 @@ class SimNode(LifecycleNode):
 
     def _restart_timer(self, factor: float) -> None:
         self._stop_timer()
-        period = 0.001 if factor == 0.0 else float(self.get_parameter('timer_period').value)
+        period = (FAST_PERIOD if factor == 0.0
+                  else float(self.get_parameter('timer_period').value))
         self._timer = self.create_timer(period, self._produce)
 
     def _stop_timer(self) -> None:
@@ -272,18 +286,19 @@ class SimNode(LifecycleNode):
 
     # ------------------------------------------------------------------ production
     def _produce(self) -> None:
-        if self._scene is None or self._frames_publisher is None:
+        with self._production_lock:
+            self._produce_due()
+
+    def _produce_due(self) -> None:
+        if self._scene is None or self._frames_publisher is None or self._timer is None:
             return
         batch = int(self.get_parameter('batch_size').value)
         factor = float(self.get_parameter('real_time_factor').value)
         if factor == 0.0:
-            # as fast as possible, but return to the executor every FAST_BUDGET seconds so
-            # commands and parameter changes are handled between bursts
-            deadline = time.monotonic() + FAST_BUDGET
-            for _ in range(FAST_BATCHES):
-                self._step_batch(batch)
-                if time.monotonic() > deadline:
-                    break
+            # as fast as possible: one batch per callback of a free-running timer, so the
+            # executor services subscriptions (commands, readers in the same process)
+            # between batches
+            self._step_batch(batch)
             return
         elapsed = time.monotonic() - self._anchor_wall
         due = self._anchor_samples + int(elapsed * factor / SAMPLE_PERIOD)

@@ -10,6 +10,7 @@ import rclpy
 from geometry_msgs.msg import TwistStamped
 from rcl_interfaces.msg import ParameterType
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.lifecycle import TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -49,7 +50,8 @@ class Harness:
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
         self.thread.start()
 
-    def wait(self, condition, timeout: float = 15.0) -> bool:
+    def wait(self, condition, timeout: float = 30.0) -> bool:
+        """Poll ``condition`` until true; generous timeout for loaded CI machines."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             if condition():
@@ -87,7 +89,7 @@ def test_real_time_frames_have_the_contract_layout_rate_and_sequence(harness_fac
     end_wall, end = harness.frames[-1]
     samples = end.first_sequence - start.first_sequence
     rate = samples / (end_wall - start_wall)
-    assert 1400 < rate < 2600                       # 2 kHz of samples in real time
+    assert 1000 < rate < 3000                       # 2 kHz of samples in real time
     messages = [message for _, message in harness.frames]
     sequences = np.array([message.first_sequence for message in messages])
     np.testing.assert_array_equal(np.diff(sequences), 20)
@@ -106,54 +108,63 @@ def test_real_time_frames_have_the_contract_layout_rate_and_sequence(harness_fac
 
 
 def test_servo_command_moves_the_joint_and_the_arm_lifts(harness_factory):
-    harness = harness_factory(scene='grasp', object='jam_jar', seed=2, real_time_factor=4.0)
+    harness = harness_factory(scene='grasp', object='jam_jar', seed=2, real_time_factor=2.0)
     assert harness.wait(lambda: len(harness.joints) >= 3)
     start = harness.joints[-1].position[0]
     assert list(harness.joints[-1].name) == [LEFT_JOINT, RIGHT_JOINT]
     target = 0.30
-    deadline = time.monotonic() + 10.0
 
     def closed():
         harness.servo.publish(ServoCommand(position=target))
         return harness.joints[-1].position[0] < start - 0.1
 
-    assert harness.wait(closed, timeout=10.0)
+    assert harness.wait(closed)
     # the servo stalls at the jar, which is wider than the commanded gap
-    assert harness.wait(lambda: harness.truth[-1].finger_force[0] > 1.0, timeout=10.0)
+    assert harness.wait(lambda: harness.truth[-1].finger_force[0] > 1.0)
     assert harness.joints[-1].effort[0] > 0.05
     lift = TwistStamped()
-    lift.twist.linear.z = 0.01
+    lift.twist.linear.z = 0.02
 
     def lifted():
         harness.arm.publish(lift)
         return harness.truth[-1].lift_height > 0.01
 
-    assert harness.wait(lifted, timeout=max(deadline - time.monotonic(), 5.0))
+    assert harness.wait(lifted)
     truth = harness.truth[-1]
     assert truth.scene == 'grasp' and truth.object_name == 'jam_jar' and truth.trial == 0
     assert truth.object_height > 0.0
     # without commands the arm stops after cmd_vel_timeout (0.5 s simulated)
-    time.sleep(1.0)
-    stopped = harness.truth[-1].lift_height
-    time.sleep(0.5)
-    assert harness.truth[-1].lift_height == pytest.approx(stopped, abs=1e-6)
+    heights = []
+
+    def stopped():
+        time.sleep(0.3)
+        latest = harness.truth[-1]
+        heights.append((latest.header.stamp.sec + 1e-9 * latest.header.stamp.nanosec,
+                        latest.lift_height))
+        return (len(heights) >= 2 and heights[-1][0] > heights[-2][0]
+                and heights[-1][1] == heights[-2][1])
+
+    assert harness.wait(stopped)
 
 
 def test_as_fast_as_possible_with_clock(harness_factory):
     harness = harness_factory(scene='calibration', object='sphere', seed=3,
                               real_time_factor=0.0, publish_clock=True, reliable=True)
-    started = time.monotonic()
     assert harness.wait(lambda: len(harness.clock) >= 2)
-    time.sleep(1.0)
-    wall = time.monotonic() - started
-    clocks = [c.clock.sec + 1e-9 * c.clock.nanosec for c in harness.clock]
+
+    def seconds(clock):
+        return clock.clock.sec + 1e-9 * clock.clock.nanosec
+
+    # the simulation clock runs (its speed is measured in bench_sim.py)
+    assert harness.wait(lambda: seconds(harness.clock[-1]) - seconds(harness.clock[0]) > 0.5)
+    clocks = [seconds(clock) for clock in harness.clock]
     assert np.all(np.diff(clocks) > 0)
-    assert clocks[-1] - clocks[0] > 0.2             # the simulation clock runs
-    del wall                                        # speed is measured in bench_sim.py
     truth = harness.truth[-1]
     assert truth.scene == 'calibration' and truth.object_state == 0
+    # one batch per executor turn: a reader in the same executor keeps up
     sequences = np.array([m.first_sequence for _, m in harness.frames])
     np.testing.assert_array_equal(np.diff(sequences), 20)
+    assert len(sequences) > 10
 
 
 def test_bad_parameters_and_commands_are_refused(harness_factory):
@@ -170,6 +181,24 @@ def test_bad_parameters_and_commands_are_refused(harness_factory):
     harness.servo.publish(ServoCommand(position=float('nan')))
     assert harness.wait(lambda: harness.node._rejected_commands == 1)
     assert harness.joints[-1].position[0] == pytest.approx(harness.node._scene.initial_angle)
+
+
+def test_deactivate_pauses_and_activate_resumes_the_stream(harness_factory):
+    harness = harness_factory(scene='empty', seed=5, reliable=True)
+    assert harness.wait(lambda: len(harness.frames) >= 10)
+    assert harness.node.trigger_deactivate() == TransitionCallbackReturn.SUCCESS
+    time.sleep(0.3)
+    paused = len(harness.frames)
+    time.sleep(0.5)
+    assert len(harness.frames) == paused
+    assert harness.node.trigger_activate() == TransitionCallbackReturn.SUCCESS
+    assert harness.wait(lambda: len(harness.frames) >= paused + 10)
+    messages = [message for _, message in harness.frames]
+    np.testing.assert_array_equal(np.diff([m.first_sequence for m in messages]), 20)
+    # resumed on the wall clock: the stamps jump over the pause, never go back
+    stamps = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in messages])
+    assert np.all(np.diff(stamps) > 0)
+    assert np.diff(stamps)[paused - 1] > 0.4
 
 
 def test_unknown_object_fails_configure():
