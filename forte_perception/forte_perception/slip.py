@@ -469,7 +469,7 @@ class SlipDetector:
         # updates per vectorised block: small enough to stay in cache and to keep the
         # (6 block, hop) @ (hop, 2K) product below OpenBLAS' multithreading threshold
         # (threads cost more than they bring at this size); no effect on the results
-        self._block = int(np.clip(131072 // (6 * 2 * 13 * self._hop), 16, 256))
+        self._block = int(np.clip(250000 // (6 * 2 * self._bins.size * self._hop), 16, 512))
         i = np.arange(self._hop)
         # z_k G_k = sum_i d_i exp(-2i pi k (i - hop) / N): columns (re, im) per bin, (hop, 2K)
         ang = 2.0 * np.pi * (np.outer(i - self._hop, self._bins) % n) / n  # (hop, K)
@@ -603,7 +603,7 @@ class SlipDetector:
         np.multiply(g, self._rotation_conj[:, s_mod][:, None, :], out=inc)
         # running sums between resync points, continuing from the stored state:
         # inc[pos] += cur, then a sequential cumulative sum into a
-        a = self._work('a', (k, c, mb), np.complex128)
+        a = prod.view(np.complex128).reshape(k, c, mb)  # reuse: g is consumed
         cur = self._a
         pos = 0
         for nxt in [*resync.tolist(), mb]:
@@ -630,7 +630,7 @@ class SlipDetector:
         np.subtract(x, d[1:-1], out=x)
         sq = d[:k - 2].view(np.float64)  # reuse: (K-2, 6, 2 mb) real
         np.square(x.view(np.float64), out=sq)
-        p = prod.reshape(-1)[:(k - 2) * c * mb].reshape(k - 2, c, mb)  # reuse
+        p = self._work('p', (k - 2, c, mb))
         np.add(sq[:, :, 0::2], sq[:, :, 1::2], out=p)
         if self._uniform_scale:
             top = p.max(axis=0) * self._scale[0, 0, 0]
