@@ -168,6 +168,7 @@ class PerceptionNode(Node):
             'stale_states': 0, 'published': 0,
         }
         self._last_reject_reason = ''
+        self._driver_counts = (0, 0)  # dropped, corrupt frames reported by the driver
         self._processing = deque(maxlen=2000)  # seconds per message
         self._arrivals = deque(maxlen=4000)  # monotonic arrival times
         self._last_output: PerceptionOutput | None = None
@@ -290,6 +291,7 @@ class PerceptionNode(Node):
             self._last_input = now
             self._stale_published = False
             self.counters['messages'] += 1
+            self._driver_counts = (int(msg.dropped_frames), int(msg.corrupt_frames))
             first = int(msg.first_sequence)
             count = int(msg.sample_count)
             if self._expected_sequence is not None and first != self._expected_sequence:
@@ -439,6 +441,8 @@ class PerceptionNode(Node):
                 'processing p99 [us]': f'{np.percentile(proc, 99):.0f}' if proc.size else '',
                 'rejected NaN/inf samples': str(out.rejected_samples if out else 0),
                 'input gaps': str(self._gap_offset + (out.input_gaps if out else 0)),
+                'driver dropped frames': str(self._driver_counts[0]),
+                'driver corrupt frames': str(self._driver_counts[1]),
             }
             values.update({k.replace('_', ' '): str(v) for k, v in self.counters.items()})
             status.values = [KeyValue(key=k, value=v) for k, v in values.items()]

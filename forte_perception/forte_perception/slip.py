@@ -40,6 +40,7 @@ bit-for-bit the batch result.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -563,7 +564,7 @@ class SlipDetector:
     def _work(self, name: str, shape: tuple[int, ...], dtype=np.float64) -> np.ndarray:
         """Contiguous scratch array: a prefix of a buffer kept between calls (stays in cache,
         no allocation per block)."""
-        size = int(np.prod(shape))
+        size = math.prod(shape)
         buf = self._scratch.get(name)
         if buf is None or buf.size < size or buf.dtype != dtype:
             buf = np.empty(max(size, 1), dtype)

@@ -261,3 +261,55 @@ def test_stale_input_and_diagnostics(harness):
     assert status.name == 'perception: pipeline'
     values = {kv.key: kv.value for kv in status.values}
     assert values['messages'] == '30' and values['samples'] == '600'
+
+
+def test_entry_point_process_runs_and_stops_cleanly(tmp_path, model_file):
+    """`python -m forte_perception.perception_node` (what `perception_node` runs) in its own
+    process: states come back over DDS, parameters from the command line, SIGINT exits 0."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'forte_perception.perception_node', '--ros-args',
+         '-p', f'model_path:={model_file}', '-p', 'tare_duration:=0.5',
+         '-p', 'stale_timeout:=30.0'],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=dict(os.environ))
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    peer = Node('peer_of_process', context=context)
+    got = []
+    peer.create_subscription(TactileState, 'tactile/state', got.append,
+                             QoSProfile(depth=500, reliability=ReliabilityPolicy.RELIABLE))
+    pub = peer.create_publisher(TactileFrames, 'tactile/frames',
+                                QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE))
+    executor = rclpy.executors.SingleThreadedExecutor(context=context)
+    executor.add_node(peer)
+    try:
+        deadline = time.monotonic() + 30.0
+        while pub.get_subscription_count() < 1:
+            assert time.monotonic() < deadline, 'node process did not come up'
+            executor.spin_once(timeout_sec=0.05)
+        x = stream()
+        helper = Harness.__new__(Harness)  # only for message construction
+        helper.sequence = 0
+        for i in range(0, 3000, CHUNK):  # lockstep: the node's input is best effort
+            pub.publish(Harness.message(helper, x[i:i + CHUNK]))
+            deadline = time.monotonic() + 10.0
+            while (not got or got[-1].sample_index < i + CHUNK - 1) and \
+                    time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.01)
+        assert got and got[-1].sample_index == 2999 and got[-1].data_valid
+        assert got[-1].tared and got[-1].force_valid  # tared after 0.5 s, model loaded
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            out, _ = proc.communicate(timeout=20)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+        executor.shutdown()
+        peer.destroy_node()
+        rclpy.shutdown(context=context)
+    assert proc.returncode == 0, out
+    assert 'perception up' in out
