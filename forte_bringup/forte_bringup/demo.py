@@ -55,10 +55,11 @@ class DemoClient:
         from rclpy.action import ActionClient
         from rclpy.executors import MultiThreadedExecutor
         from rclpy.qos import QoSProfile, ReliabilityPolicy
+        from sensor_msgs.msg import JointState
 
         from forte_bringup.record import BagRecorder
         from forte_msgs.action import Grasp
-        from forte_msgs.msg import SimGroundTruth
+        from forte_msgs.msg import SimGroundTruth, TactileState
 
         rclpy.init()
         self.recorder = BagRecorder(bag, node_name='forte_demo_recorder')
@@ -66,21 +67,59 @@ class DemoClient:
         self.client = ActionClient(self.node, Grasp, 'grasp')
         self.truth = None
         self.max_true_force = 0.0
+        self.tared_states = 0
+        self.joint_states = 0
+        reliable = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
         self.node.create_subscription(SimGroundTruth, 'sim/ground_truth', self._on_truth,
-                                      QoSProfile(depth=50,
-                                                 reliability=ReliabilityPolicy.RELIABLE))
+                                      reliable)
+        self.node.create_subscription(TactileState, 'tactile/state', self._on_state, reliable)
+        self.node.create_subscription(JointState, 'joint_states', self._on_joint_state,
+                                      reliable)
         self.executor = MultiThreadedExecutor(num_threads=2)
         self.executor.add_node(self.recorder.node)
         self.executor.add_node(self.node)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
         self.thread.start()
 
+    def _on_state(self, message) -> None:
+        if message.tared and message.data_valid:
+            self.tared_states += 1
+
+    def _on_joint_state(self, _message) -> None:
+        self.joint_states += 1
+
+    def wait_ready(self, timeout: float = 30.0) -> None:
+        """Wait until perception publishes tared, valid states and joint states flow."""
+        self.tared_states = self.joint_states = 0
+        deadline = time.monotonic() + timeout
+        while self.tared_states < 20 or self.joint_states < 10:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f'graph not ready: {self.tared_states} tared perception '
+                                   f'states, {self.joint_states} joint states in {timeout} s')
+            time.sleep(0.05)
+
     def _on_truth(self, message) -> None:
         self.truth = message
         self.max_true_force = max(self.max_true_force, *message.finger_force)
 
-    def grasp(self, controller: str, timeout: float) -> dict:
-        """Send one Grasp goal and wait for its result; returns the result fields."""
+    def grasp(self, controller: str, timeout: float, attempts: int = 3) -> dict:
+        """Send a Grasp goal and wait for its result; a goal the controller refuses before
+        any motion (e.g. data not fresh yet) is retried after a second."""
+        for attempt in range(attempts):
+            try:
+                result = self._grasp_once(controller, timeout)
+            except TimeoutError as error:  # goal request or response lost before matching
+                if attempt + 1 == attempts:
+                    raise RuntimeError(str(error)) from error
+                say(f'  {error}; sending the goal again')
+                continue
+            if not result['message'].startswith('refused') or attempt + 1 == attempts:
+                return result
+            say(f'  goal refused ({result["message"]}); retrying in 1 s')
+            time.sleep(1.0)
+        return result
+
+    def _grasp_once(self, controller: str, timeout: float) -> dict:
         from forte_msgs.action import Grasp
 
         if not self.client.wait_for_server(timeout_sec=30.0):
@@ -88,10 +127,10 @@ class DemoClient:
         self.max_true_force = 0.0
         goal = Grasp.Goal(controller=getattr(Grasp.Goal, controller), timeout=timeout)
         sent = self.client.send_goal_async(goal)
-        deadline = time.monotonic() + 30.0
+        deadline = time.monotonic() + 10.0
         while not sent.done():
             if time.monotonic() > deadline:
-                raise RuntimeError('goal not acknowledged')
+                raise TimeoutError('goal not acknowledged within 10 s')
             time.sleep(0.02)
         handle = sent.result()
         if not handle.accepted:
@@ -125,7 +164,7 @@ OBJECT_STATES = {0: 'NONE', 1: 'RESTING', 2: 'HELD', 3: 'DROPPED', 4: 'BROKEN', 
 
 
 def run(objects: list[str], controllers: list[str], output: Path, settle: float,
-        timeout: float) -> int:
+        timeout: float, real_time_factor: float) -> int:
     """The whole demo; returns a process exit code."""
     from forte_bringup.bringup import Bringup, BringupError
     from forte_bringup.report import outcome_table, plot_grasp, traces_from_bag
@@ -147,11 +186,13 @@ def run(objects: list[str], controllers: list[str], output: Path, settle: float,
                 say(f'{number}/{total} {label}: starting sim_node, perception_node, '
                     'grasp_controller_node')
                 bringup = Bringup('sim', {'object': object_name, 'force_model': str(model)},
+                                  extra_parameters={
+                                      'sim': {'real_time_factor': real_time_factor}},
                                   log_dir=output / 'logs' / f'{object_name}_{controller}',
                                   echo=None)
                 try:
                     bringup.start(timeout=60.0)
-                    time.sleep(1.5)  # the perception node tares on the quiet start
+                    client.wait_ready()  # perception tared on the quiet start, joints known
                     first = time.time_ns()
                     say(f'{number}/{total} {label}: grasping')
                     result = client.grasp(controller, timeout)
@@ -192,6 +233,8 @@ def run(objects: list[str], controllers: list[str], output: Path, settle: float,
              '## Outcomes', '', outcome_table(rows), '',
              '"outcome" is what the controller concluded from its sensors; "object (truth)" is '
              'the simulator\'s ground truth a few seconds after the grasp.', '',
+             *(f'- {r["object"]} / {r["controller"]}: {r.get("message", "")}' for r in rows),
+             '',
              '## Figures', '']
     for figure in figures:
         lines += [f'### {figure.stem}', '', f'![{figure.stem}]({figure.name})', '']
@@ -220,13 +263,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--settle', type=float, default=1.5,
                         help='recording time after each result [s]')
     parser.add_argument('--timeout', type=float, default=60.0, help='grasp timeout [s]')
+    parser.add_argument('--real-time-factor', type=float, default=0.5,
+                        help='simulated seconds per wall second (the graph runs on /clock); '
+                             '0.5 leaves perception headroom on a busy 2-core machine')
     args = parser.parse_args(argv)
 
     from forte_bringup.ros_isolation import isolate_ros_network
 
     domain = isolate_ros_network()
     say(f'ROS_DOMAIN_ID={domain}, discovery on localhost only')
-    return run(args.objects, args.controllers, args.output, args.settle, args.timeout)
+    return run(args.objects, args.controllers, args.output, args.settle, args.timeout,
+               args.real_time_factor)
 
 
 if __name__ == '__main__':
