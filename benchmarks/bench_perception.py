@@ -251,6 +251,14 @@ def bench_force_models(rows, source: str) -> None:
             lat[name].append(_latency(m, feats[test][:200]))
             batch[name].append(_batch_cost(m, feats[test]))
             n_sv[name].append(m.support_vectors.shape[0])
+        nys = _nystroem(feats[train], target[train], full.gamma)
+        errors.setdefault('Nystroem 150 + ridge', []).append(
+            np.clip(nys.predict(feats[test]), 0.0, 10.0) - target[test])
+        lat.setdefault('Nystroem 150 + ridge', []).append(_latency_fn(nys.predict,
+                                                                      feats[test][:200]))
+        batch.setdefault('Nystroem 150 + ridge', []).append(
+            cpu_time(lambda m=nys, r=feats[test]: m.predict(r), 3) / len(test))
+        n_sv.setdefault('Nystroem 150 + ridge', []).append(150)
         base = ForceModel.fit(feats[train][:, :6], target[train], kind='latest', epsilon=0.02,
                               force_range=(0.0, 10.0))
         errors['latest frame only (6)'].append(base.predict(feats[test]) - target[test])
@@ -259,13 +267,15 @@ def bench_force_models(rows, source: str) -> None:
         n_sv['latest frame only (6)'].append(base.support_vectors.shape[0])
     print(f'{"model":30s}{"SVs":>7s}{"RMSE [N]":>10s}{"MAE [N]":>10s}'
           f'{"one [us]":>10s}{"batch [us/row]":>16s}')
-    for name in errors:
+    order = [n for n in errors if n != 'latest frame only (6)'] + ['latest frame only (6)']
+    for name in order:
         e = np.concatenate(errors[name])
         print(f'{name:30s}{np.mean(n_sv[name]):7.0f}{np.sqrt(np.mean(e ** 2)):10.3f}'
               f'{np.mean(np.abs(e)):10.3f}{np.median(lat[name]) * 1e6:10.1f}'
               f'{np.median(batch[name]) * 1e6:16.2f}')
-    print('(one: latency p50 of one prediction, ForceModel.predict_one, mostly call overhead; '
-          'batch: cost per row of ForceModel.predict on a held-out fold)')
+    print('(one: latency p50 of one prediction (ForceModel.predict_one; sklearn pipeline for '
+          'Nystroem), mostly call overhead; batch: CPU per row of one prediction of a '
+          'held-out fold)')
 
 
 def _latency(model: ForceModel, rows: np.ndarray) -> float:
@@ -273,6 +283,26 @@ def _latency(model: ForceModel, rows: np.ndarray) -> float:
     for r in rows:
         t0 = time.perf_counter()
         model.predict_one(r)
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times))
+
+
+def _nystroem(x: np.ndarray, y: np.ndarray, gamma: float):
+    """Kernel approximation: scaler + Nystroem RBF features (150) + ridge regression."""
+    from sklearn.kernel_approximation import Nystroem
+    from sklearn.linear_model import Ridge
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+    return make_pipeline(StandardScaler(), Nystroem(gamma=gamma, n_components=150,
+                                                    random_state=0),
+                         Ridge(alpha=1e-3)).fit(x, y)
+
+
+def _latency_fn(fn, rows: np.ndarray) -> float:
+    times = []
+    for r in rows:
+        t0 = time.perf_counter()
+        fn(r[None])
         times.append(time.perf_counter() - t0)
     return float(np.median(times))
 
