@@ -16,7 +16,14 @@ import sys
 import time
 
 import numpy as np
-from threadpoolctl import threadpool_limits
+
+try:  # installed with scikit-learn; limits BLAS to one thread (single-threaded comparison)
+    from threadpoolctl import threadpool_limits
+except ImportError:  # pragma: no cover
+    from contextlib import nullcontext
+
+    def threadpool_limits(limits=None):
+        return nullcontext()
 
 FS = 2000.0
 HERE = os.path.dirname(os.path.abspath(__file__))
