@@ -7,6 +7,7 @@ import time
 import numpy as np
 import pytest
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistStamped
 from rcl_interfaces.msg import ParameterType
 from rclpy.executors import SingleThreadedExecutor
@@ -35,6 +36,7 @@ class Harness:
         self.joints: list[JointState] = []
         self.truth: list[SimGroundTruth] = []
         self.clock: list[Clock] = []
+        self.diagnostics: list[DiagnosticArray] = []
         self.peer.create_subscription(
             TactileFrames, 'tactile/frames',
             lambda message: self.frames.append((time.monotonic(), message)), reliable)
@@ -42,6 +44,8 @@ class Harness:
         self.peer.create_subscription(SimGroundTruth, 'sim/ground_truth', self.truth.append,
                                       reliable)
         self.peer.create_subscription(Clock, '/clock', self.clock.append, reliable)
+        self.peer.create_subscription(DiagnosticArray, '/diagnostics', self.diagnostics.append,
+                                      reliable)
         self.servo = self.peer.create_publisher(ServoCommand, 'gripper/command', 10)
         self.arm = self.peer.create_publisher(TwistStamped, 'arm/cmd_vel', 10)
         self.executor = SingleThreadedExecutor(context=self.context)
@@ -105,6 +109,14 @@ def test_real_time_frames_have_the_contract_layout_rate_and_sequence(harness_fac
     stamps = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in messages])
     np.testing.assert_allclose(np.diff(stamps), 0.01, atol=1e-6)
     assert first.device_time_us == first.first_sequence * 500
+    # diagnostics report the simulation's progress once per second
+    assert harness.wait(lambda: any(status.name.endswith('simulated scene')
+                                    for array in harness.diagnostics
+                                    for status in array.status))
+    values = {item.key: item.value for item in harness.diagnostics[-1].status[0].values}
+    assert values['scene'] == 'grasp' and values['object'] == 'apple'
+    assert float(values['simulated_seconds']) > 0.0
+    assert values['rejected_commands'] == '0'
 
 
 def test_servo_command_moves_the_joint_and_the_arm_lifts(harness_factory):
