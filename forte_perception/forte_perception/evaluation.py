@@ -7,7 +7,9 @@ Labelled recording: one ``.npz`` (no pickle) with
 - ``fs`` () float: sampling rate [Hz];
 - ``onsets`` (k,) int64: rows of ``frames`` where a slip starts (k may be 0);
 - ``trial`` (n,) int, optional: trial id per row, contiguous runs (default: one trial);
-- ``filtered`` () bool, optional: frames are already median-filtered.
+- ``filtered`` () bool, optional: frames are already median-filtered;
+- ``mask`` (n,) bool, optional: rows where detection is evaluated (e.g. the lift phase, as
+  in the paper); flags on other rows are ignored.
 
 Each trial runs through a fresh slip detector. Trial-wise (as in the paper): a trial is
 positive when it has at least one onset, predicted positive when any detector update in it
@@ -41,6 +43,7 @@ class LabelledRecording:
     trial: np.ndarray | None = None
     filtered: bool = False
     name: str = field(default='')
+    mask: np.ndarray | None = None
 
 
 def save_labelled(path: str | Path, recording: LabelledRecording) -> None:
@@ -51,6 +54,8 @@ def save_labelled(path: str | Path, recording: LabelledRecording) -> None:
               'filtered': np.bool_(recording.filtered)}
     if recording.trial is not None:
         arrays['trial'] = np.asarray(recording.trial, np.int64)
+    if recording.mask is not None:
+        arrays['mask'] = np.asarray(recording.mask, bool)
     np.savez_compressed(path, **arrays)
 
 
@@ -64,13 +69,16 @@ def load_labelled(path: str | Path) -> LabelledRecording:
         rec = LabelledRecording(frames, float(data['fs']), data['onsets'].astype(np.int64),
                                 data['trial'] if 'trial' in data.files else None,
                                 bool(data['filtered']) if 'filtered' in data.files else False,
-                                Path(path).name)
+                                Path(path).name,
+                                data['mask'].astype(bool) if 'mask' in data.files else None)
     if frames.ndim != 2 or frames.shape[1] != 6:
         raise ValueError(f'{path}: frames must be (n, 6), got {frames.shape}')
     if rec.onsets.size and (rec.onsets.min() < 0 or rec.onsets.max() >= frames.shape[0]):
         raise ValueError(f'{path}: onsets outside 0..{frames.shape[0] - 1}')
     if rec.trial is not None and rec.trial.shape != (frames.shape[0],):
         raise ValueError(f'{path}: trial must have one id per row')
+    if rec.mask is not None and rec.mask.shape != (frames.shape[0],):
+        raise ValueError(f'{path}: mask must have one flag per row')
     return rec
 
 
@@ -94,7 +102,8 @@ def _trials(rec: LabelledRecording) -> list[tuple[int, int]]:
 
 
 def evaluate_slip(recordings: list[LabelledRecording], params: SlipParams | None = None,
-                  median_window: int = 11, max_latency: float = 0.5) -> dict:
+                  median_window: int = 11, max_latency: float = 0.5,
+                  skip: float = 0.0) -> dict:
     """Trial-wise confusion counts and metrics, per-onset latencies, false alarms.
 
     Parameters
@@ -105,6 +114,9 @@ def evaluate_slip(recordings: list[LabelledRecording], params: SlipParams | None
         Median filter applied to unfiltered recordings [samples].
     max_latency : float
         Longest onset-to-flag delay that counts as a detection [s].
+    skip : float
+        Ignore flags in the first ``skip`` seconds of every trial [s] (in addition to the
+        recording's ``mask``).
 
     Returns
     -------
@@ -124,6 +136,10 @@ def evaluate_slip(recordings: list[LabelledRecording], params: SlipParams | None
             onsets = np.sort(rec.onsets[(rec.onsets >= a) & (rec.onsets < b)]) - a
             res = slip_features(frames[a:b], fs=fs, params=params)
             flags = res.sample_index[res.slip]
+            keep = flags >= int(round(skip * fs))
+            if rec.mask is not None:
+                keep &= rec.mask[a + flags]
+            flags = flags[keep]
             positive, predicted = onsets.size > 0, flags.size > 0
             tp += positive and predicted
             fp += (not positive) and predicted

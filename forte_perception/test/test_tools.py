@@ -114,3 +114,17 @@ def test_evaluate_slip_on_labelled_trials(tmp_path, capsys):
     assert evaluate_tool.main([str(path), '--report', str(tmp_path / 'r.json')]) == 0
     assert 'precision 1.000' in capsys.readouterr().out
     assert evaluate_tool.main([str(path), '--hop', '0']) == 2
+
+
+def test_evaluation_window_ignores_flags_outside(tmp_path):
+    """Flags outside the mask (or in the skipped start) do not count: a contact transient
+    before the lift is not a false positive."""
+    n = 8000
+    frames = slip_bursts(n, seed=3, onsets=(1000,)) + 0.1  # a burst early in the trial
+    rec = LabelledRecording(frames, FS, np.array([], np.int64))
+    assert evaluate_slip([rec])['trials']['fp'] == 1
+    assert evaluate_slip([rec], skip=1.0)['trials']['tn'] == 1
+    rec.mask = np.arange(n) >= 2000
+    assert evaluate_slip([rec])['trials']['tn'] == 1
+    save_labelled(tmp_path / 'm.npz', rec)
+    assert evaluate_tool.main([str(tmp_path / 'm.npz')]) == 0

@@ -5,9 +5,10 @@ Example::
     forte_evaluate_slip trial1.npz trial2.npz --max-latency 0.5 --report slip.json
 
 Recording format: see :mod:`forte_perception.evaluation` (``frames``, ``fs``, ``onsets``,
-optional ``trial`` and ``filtered``). Prints the trial-wise TP/FP/FN/TN, accuracy,
-precision, recall and F1 (as in the paper), the onset-to-flag latency distribution, missed
-onsets and false alarms. Every slip detector parameter can be overridden.
+optional ``trial``, ``filtered`` and ``mask`` of the rows where flags count). Prints the
+trial-wise TP/FP/FN/TN, accuracy, precision, recall and F1 (as in the paper), the
+onset-to-flag latency distribution, missed onsets and false alarms. Every slip detector
+parameter can be overridden.
 """
 from __future__ import annotations
 
@@ -29,6 +30,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('recordings', nargs='+', help='labelled recording .npz files')
     parser.add_argument('--max-latency', type=float, default=0.5,
                         help='longest onset-to-flag delay counted as a detection [s]')
+    parser.add_argument('--skip', type=float, default=0.0,
+                        help='ignore flags in the first SKIP seconds of every trial [s]')
     parser.add_argument('--median-window', type=int, default=11)
     parser.add_argument('--window', type=int, default=d.window, help='FFT window N')
     parser.add_argument('--hop', type=int, default=d.hop)
@@ -50,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
     except (OSError, ValueError) as exc:
         print(f'forte_evaluate_slip: {exc}', file=sys.stderr)
         return 2
-    result = evaluate_slip(recordings, params, args.median_window, args.max_latency)
+    result = evaluate_slip(recordings, params, args.median_window, args.max_latency, args.skip)
     m = result['trials']
     print(f'trials: {m["tp"] + m["fp"] + m["fn"] + m["tn"]}  TP {m["tp"]}  FP {m["fp"]}  '
           f'FN {m["fn"]}  TN {m["tn"]}')
