@@ -219,6 +219,9 @@ class Bringup:
         if graph == 'replay' and not self.arguments.get('bag'):
             raise BringupError('the replay graph needs bag:=<bag folder or .mcap file>')
         self.extra_parameters = extra_parameters or {}
+        #: refused configure / activate requests tolerated per node, 1 s apart (a device
+        #: that just enumerated, a servo bus that missed one status packet)
+        self.transition_attempts = 3
         self.log_dir = Path(log_dir)
         self.echo = echo
         self.children: list[_Child] = []
@@ -260,8 +263,7 @@ class Bringup:
             self._wait_for_nodes(timeout)
             for spec in self.graph.nodes:
                 if spec.lifecycle:
-                    self.change_state(spec.name, TRANSITION_CONFIGURE, timeout)
-                    self.change_state(spec.name, TRANSITION_ACTIVATE, timeout)
+                    self.activate(spec.name, timeout)
         except BaseException:
             self.stop()
             raise
@@ -305,6 +307,32 @@ class Bringup:
                 raise BringupError(f'nodes {sorted(missing)} did not appear within {timeout} s')
             self._spin(0.1)
 
+    def _call(self, service_type, name: str, request, timeout: float):
+        client = self._manager.create_client(service_type, name)
+        try:
+            deadline = time.monotonic() + timeout
+            while not client.service_is_ready():
+                self.check_children()
+                if time.monotonic() > deadline:
+                    raise BringupError(f'service {name} not available')
+                self._spin(0.05)
+            future = client.call_async(request)
+            while not future.done():
+                self.check_children()
+                if time.monotonic() > deadline:
+                    raise BringupError(f'service {name} did not answer within {timeout} s')
+                self._spin(0.05)
+            return future.result()
+        finally:
+            self._manager.destroy_client(client)
+
+    def get_state(self, node: str, timeout: float = 5.0) -> str:
+        """Current lifecycle state label of ``node`` (``unconfigured``, ``inactive``, ...)."""
+        from lifecycle_msgs.srv import GetState
+
+        return self._call(GetState, f'/{node}/get_state', GetState.Request(),
+                          timeout).current_state.label
+
     def change_state(self, node: str, transition: int, timeout: float = 10.0) -> None:
         """Request a lifecycle transition of ``node`` through its ``change_state`` service.
 
@@ -315,30 +343,48 @@ class Bringup:
         """
         from lifecycle_msgs.srv import ChangeState
 
-        client = self._manager.create_client(ChangeState, f'/{node}/change_state')
-        try:
-            deadline = time.monotonic() + timeout
-            while not client.service_is_ready():
-                self.check_children()
-                if time.monotonic() > deadline:
-                    raise BringupError(f'{node}: lifecycle service change_state not available')
-                self._spin(0.05)
-            request = ChangeState.Request()
-            request.transition.id = transition
-            future = client.call_async(request)
-            while not future.done():
-                self.check_children()
-                if time.monotonic() > deadline:
-                    raise BringupError(f'{node}: transition {transition} timed out')
-                self._spin(0.05)
-            if not future.result().success:
-                raise BringupError(f'{node}: lifecycle transition {transition} refused '
-                                   f'(see {self.log_dir / (node + ".log")})')
-            if self.echo is not None:
-                label = {1: 'configured', 3: 'activated', 4: 'deactivated'}.get(transition)
-                self.echo.write(f'[forte_bringup] {node} {label}\n')
-        finally:
-            self._manager.destroy_client(client)
+        request = ChangeState.Request()
+        request.transition.id = transition
+        response = self._call(ChangeState, f'/{node}/change_state', request, timeout)
+        label = {1: 'configure', 3: 'activate', 4: 'deactivate'}.get(transition, transition)
+        if not response.success:
+            raise BringupError(f'{node}: lifecycle transition {label} refused '
+                               f'(see {self.log_dir / (node + ".log")})')
+        if self.echo is not None:
+            self.echo.write(f'[forte_bringup] {node}: {label} done\n')
+
+    def activate(self, node: str, timeout: float = 10.0) -> None:
+        """Configure and activate ``node``, retrying refused transitions.
+
+        The node's state is read before every request (``get_state``) so that only valid
+        transitions are asked for: unconfigured -> configure, inactive -> activate. A
+        refused transition is retried after 1 s, up to :attr:`transition_attempts` refusals.
+
+        Raises
+        ------
+        BringupError
+            After too many refusals, or if the node is in another state (e.g. finalized).
+        """
+        refusals = 0
+        while True:
+            state = self.get_state(node, timeout)
+            if state == 'active':
+                return
+            if state == 'unconfigured':
+                transition = TRANSITION_CONFIGURE
+            elif state == 'inactive':
+                transition = TRANSITION_ACTIVATE
+            else:
+                raise BringupError(f'{node} is {state}; cannot activate it')
+            try:
+                self.change_state(node, transition, timeout)
+            except BringupError as error:
+                refusals += 1
+                if refusals >= self.transition_attempts:
+                    raise
+                if self.echo is not None:
+                    self.echo.write(f'[forte_bringup] {error}; retrying in 1 s\n')
+                self._spin(1.0)
 
     def stop(self, timeout: float = 10.0) -> dict[str, int]:
         """Deactivate lifecycle nodes, then stop every child; returns exit codes by name."""
@@ -346,10 +392,11 @@ class Bringup:
             for spec in self.graph.nodes:
                 child = next((c for c in self.children if c.name == spec.name), None)
                 if spec.lifecycle and child is not None and child.process.poll() is None:
-                    try:
-                        self.change_state(spec.name, TRANSITION_DEACTIVATE, 3.0)
+                    try:  # only an active node can be deactivated (rclpy raises otherwise)
+                        if self.get_state(spec.name, 3.0) == 'active':
+                            self.change_state(spec.name, TRANSITION_DEACTIVATE, 3.0)
                     except BringupError:
-                        pass  # not active (e.g. configure failed): just stop the process
+                        pass  # not answering: just stop the process
         codes = {}
         for child in reversed(self.children):  # recorder first, sources last
             codes[child.name] = child.stop(timeout)

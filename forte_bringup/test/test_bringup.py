@@ -107,13 +107,12 @@ class Watcher(Node):
         from forte_msgs.msg import GraspState, TactileFrames, TactileState
 
         self.counts = {'tactile/frames': 0, 'tactile/state': 0, 'joint_states': 0,
-                       'grasp/state': 0}
+                       'grasp/state': 0, 'tared': 0}
         self.last_grasp_state = None
         best_effort = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
         self.create_subscription(TactileFrames, 'tactile/frames',
                                  lambda m: self._count('tactile/frames'), best_effort)
-        self.create_subscription(TactileState, 'tactile/state',
-                                 lambda m: self._count('tactile/state'),
+        self.create_subscription(TactileState, 'tactile/state', self._on_state,
                                  QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE))
         self.create_subscription(JointState, 'joint_states',
                                  lambda m: self._count('joint_states'),
@@ -121,6 +120,10 @@ class Watcher(Node):
         self.create_subscription(GraspState, 'grasp/state', self._on_grasp_state,
                                  QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                                             durability=DurabilityPolicy.TRANSIENT_LOCAL))
+
+    def _on_state(self, message) -> None:
+        self.counts['tactile/state'] += 1
+        self.counts['tared'] += int(message.tared and message.data_valid)
 
     def _count(self, topic: str) -> None:
         self.counts[topic] += 1
@@ -205,8 +208,11 @@ def test_sim_graph_serves_a_grasp(watcher, tmp_path):
                       log_dir=tmp_path / 'logs', echo=None)
     bringup.start(timeout=60.0)
     try:
-        assert wait_for(lambda: watcher.counts['tactile/state'] > 20, 30.0), watcher.counts
+        # the controller refuses a goal before perception is tared and joint states flow
+        assert wait_for(lambda: watcher.counts['tared'] > 20, 30.0), watcher.counts
+        assert wait_for(lambda: watcher.counts['joint_states'] > 10, 30.0), watcher.counts
         assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, 30.0)
+        time.sleep(0.5)
         client = ActionClient(watcher, Grasp, 'grasp')
         assert client.wait_for_server(timeout_sec=30.0)
         goal = Grasp.Goal(controller=Grasp.Goal.FORTE, lift_distance=0.01, timeout=60.0)
