@@ -43,6 +43,19 @@ from .model import (
 )
 from .noise import SensorNoise
 
+try:  # the compiled core of scipy.signal.lfilter, without its per-call argument handling
+    from scipy.signal._sigtools import _linear_filter as _compiled_linear_filter
+except ImportError:  # pragma: no cover - other scipy layouts: the public function
+    _compiled_linear_filter = None
+
+
+def _iir(b: np.ndarray, a: np.ndarray, x: np.ndarray,
+         state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """scipy.signal.lfilter along axis 0 with initial state (same arithmetic, less overhead)."""
+    if _compiled_linear_filter is not None:
+        return _compiled_linear_filter(b, a, x, 0, state)
+    return lfilter(b, a, x, axis=0, zi=state)
+
 #: Samples per mechanics tick (5 ms at 2 kHz).
 TICK_SAMPLES = 10
 TICK = TICK_SAMPLES * SAMPLE_PERIOD
@@ -890,16 +903,20 @@ class Scene:
         raw = np.repeat(pressure, 3, axis=1) * self._normal_gain
         raw += np.repeat(fine[:, 7:9], 3, axis=1) * self._temperature_gain
         if self.dynamics:
-            samples = np.arange(first_sample, first_sample + count)
-            jumps = np.column_stack([
-                self._jump_series(samples, finger, events, jumps_before[finger])
-                for finger in (0, 1)])
+            if events:
+                samples = np.arange(first_sample, first_sample + count)
+                jumps = np.column_stack([
+                    self._jump_series(samples, finger, events, jumps_before[finger])
+                    for finger in (0, 1)])
+            else:
+                jumps = np.empty((count, 2))
+                jumps[:, 0] = jumps_before[0]
+                jumps[:, 1] = jumps_before[1]
             shear = fine[:, 5:7] + jumps
             # a release jolts the object, which shakes the other finger too
             drive = shear + _RELEASE_COUPLING * jumps[:, ::-1]
-            dynamic, self._resonator_state = lfilter(
-                self._resonator_b, self._resonator_a, drive, axis=0,
-                zi=self._resonator_state)
+            dynamic, self._resonator_state = _iir(self._resonator_b, self._resonator_a, drive,
+                                                  self._resonator_state)
             raw += (np.repeat(shear, 3, axis=1) * self._shear_gain
                     + np.repeat(dynamic - drive, 3, axis=1) * self._vibration_gain)
         raw += self._draws.offsets
