@@ -106,13 +106,7 @@ class DemoClient:
         """Send a Grasp goal and wait for its result; a goal the controller refuses before
         any motion (e.g. data not fresh yet) is retried after a second."""
         for attempt in range(attempts):
-            try:
-                result = self._grasp_once(controller, timeout)
-            except TimeoutError as error:  # goal request or response lost before matching
-                if attempt + 1 == attempts:
-                    raise RuntimeError(str(error)) from error
-                say(f'  {error}; sending the goal again')
-                continue
+            result = self._grasp_once(controller, timeout)
             if not result['message'].startswith('refused') or attempt + 1 == attempts:
                 return result
             say(f'  goal refused ({result["message"]}); retrying in 1 s')
@@ -124,13 +118,16 @@ class DemoClient:
 
         if not self.client.wait_for_server(timeout_sec=30.0):
             raise RuntimeError('grasp action server not available')
+        # the client sees the server; give the server time to match the client's response
+        # readers too, or a reliable response can go to nobody (the goal runs unacknowledged)
+        time.sleep(1.0)
         self.max_true_force = 0.0
         goal = Grasp.Goal(controller=getattr(Grasp.Goal, controller), timeout=timeout)
         sent = self.client.send_goal_async(goal)
-        deadline = time.monotonic() + 10.0
+        deadline = time.monotonic() + 30.0
         while not sent.done():
             if time.monotonic() > deadline:
-                raise TimeoutError('goal not acknowledged within 10 s')
+                raise RuntimeError('goal not acknowledged within 30 s')
             time.sleep(0.02)
         handle = sent.result()
         if not handle.accepted:
