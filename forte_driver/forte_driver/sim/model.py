@@ -55,7 +55,7 @@ class GripperModel:
     channel_kernel_width: float = 0.35   # [-]
     channel_trim: tuple[float, ...] = (1.00, 0.94, 1.07, 1.05, 0.97, 0.92)  # unit spread
     pressure_curvature: float = 0.004    # concave pressure-deflection term [1/mm]
-    shear_gain: tuple[float, float, float] = (0.010, 0.006, -0.005)        # static [1/N]
+    shear_gain: tuple[float, float, float] = (0.004, 0.0024, -0.002)       # static [1/N]
     vibration_gain: tuple[float, float, float] = (0.12, 0.08, 0.05)        # dynamic [1/N]
     # --- temperature: ideal gas, dP/P = dT/T: 101325 Pa / 293 K = 1.39 inH2O/K for the
     # whole channel; only the part under the contact is heated.

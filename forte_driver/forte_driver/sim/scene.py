@@ -99,6 +99,7 @@ _SEATING_SPREAD = 0.08      # indentor height jitter on the finger, +- [-]
 _CENTRING_SPREAD = 1.5      # indentor centring jitter, +- [mm]
 _RIG_TEMPERATURE_SPREAD = 0.5   # indentor minus finger temperature, std [K]
 _RESIDUAL_RELAXATION = 1.0  # relaxation left from earlier grasps, up to [N]
+_LATERAL_STEP = 0.025       # largest sideways slide of the object per tick (5 mm/s) [mm]
 _LATERAL_TOLERANCE = 1e-4   # force imbalance ignored by the lateral placement [N]
 _STICK_SLIP_HOLD = 0.1      # a release labels stick-slip for this long [s]
 _RELEASE_COUPLING = 0.5     # share of a release step felt by the other finger [-]
@@ -604,7 +605,9 @@ class Scene:
                 target = imbalance - math.copysign(resist, imbalance)
                 total = stiffness[0] + stiffness[1]
                 if total > 0.0:
-                    lateral += target / total
+                    # the object slides sideways at a finite speed, not in one jump
+                    shift = target / total
+                    lateral += min(max(shift, -_LATERAL_STEP), _LATERAL_STEP)
                     self._lateral = lateral
                     deflections, forces, stiffness = self._solve_fingers(theta, lateral)
         self._velocity = (theta - theta_old) / TICK
@@ -913,8 +916,9 @@ class Scene:
                 jumps[:, 0] = jumps_before[0]
                 jumps[:, 1] = jumps_before[1]
             shear = fine[:, 5:7] + jumps
-            # a release jolts the object, which shakes the other finger too
-            drive = shear + _RELEASE_COUPLING * jumps[:, ::-1]
+            # the bending mode rings after every release step (smooth loading does not
+            # excite it); a release jolts the object, which shakes the other finger too
+            drive = jumps + _RELEASE_COUPLING * jumps[:, ::-1]
             dynamic, self._resonator_state = _iir(self._resonator_b, self._resonator_a, drive,
                                                   self._resonator_state)
             raw += (np.repeat(shear, 3, axis=1) * self._shear_gain
