@@ -1,8 +1,10 @@
 """ROS 2 shell around :class:`forte_perception.pipeline.PerceptionPipeline`.
 
 Subscribes ``tactile/frames`` (forte_msgs/TactileFrames, sensor-data QoS: best effort, keep
-last 50), publishes ``tactile/state`` (forte_msgs/TactileState, reliable, keep last 50) once
-per input message, serves ``perception/tare`` (forte_msgs/srv/Tare) and
+last 50), publishes ``tactile/state`` (forte_msgs/TactileState, reliable, keep last 50) at
+every force instant inside an input message and at its end (one state per 20-sample message
+at the default 100 Hz; a 200-sample message gives 10 states, so the force rate does not
+depend on the driver's batch size), serves ``perception/tare`` (forte_msgs/srv/Tare) and
 ``perception/reset`` (std_srvs/srv/Trigger), and publishes ``/diagnostics`` at 1 Hz.
 
 Input checks (each counted, reported in diagnostics, never invented):
@@ -308,22 +310,34 @@ class PerceptionNode(Node):
             if count == 0:
                 return
             self.counters['samples'] += count
-            out = self._pipeline.process(frames)
             period = msg.sample_period if msg.sample_period > 0 else 1.0 / self._sample_rate
-            stamp_ns = (msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-                        + int(round((count - 1) * period * 1e9)))
+            start_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
             frame_id = msg.header.frame_id or self._frame_id
-            state = self._to_message(out, stamp_ns, frame_id)
+            states = []
+            # one state per force instant inside the message (and one at its end), so the
+            # force is published at force_rate whatever the input batch size
+            step = self._pipeline.config.force_step
+            done = self._pipeline.samples_seen
+            ends = [i + 1 for i in range(count) if (done + i + 1) % step == 0]
+            if not ends or ends[-1] != count:
+                ends.append(count)
+            begin = 0
+            for end in ends:
+                out = self._pipeline.process(frames[begin:end])
+                stamp_ns = start_ns + int(round((end - 1) * period * 1e9))
+                states.append(self._to_message(out, stamp_ns, frame_id))
+                if out.slip:
+                    self.counters['slip_messages'] += 1
+                begin = end
             self._last_output = out
             self._last_stamp = (stamp_ns, frame_id)
-            if out.slip:
-                self.counters['slip_messages'] += 1
             result = self._pipeline.tare_result
             if result is not None and self._tare_future is not None and \
                     not self._tare_future.done():
                 self._tare_future.set_result(result)
-        self._state_pub.publish(state)
-        self.counters['published'] += 1
+        for state in states:
+            self._state_pub.publish(state)
+        self.counters['published'] += len(states)
         self._processing.append(time.perf_counter() - t0)
 
     def _to_message(self, out: PerceptionOutput, stamp_ns: int, frame_id: str,

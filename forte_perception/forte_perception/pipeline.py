@@ -271,6 +271,11 @@ class PerceptionPipeline:
         self._out.slip_active = False
 
     @property
+    def samples_seen(self) -> int:
+        """Input rows consumed since (re)start, including rejected ones [count]."""
+        return self._samples
+
+    @property
     def gaps(self) -> int:
         """Gaps since (re)start: marked gaps and runs of rejected rows [count]."""
         return self._gaps

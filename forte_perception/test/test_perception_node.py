@@ -243,6 +243,10 @@ def test_parameters_are_validated(harness, tmp_path):
     x = stream()
     for i in range(0, 1000, CHUNK):
         harness.send(x[i:i + CHUNK])
+    deadline = time.monotonic() + 5.0  # 200 Hz force: two states per 20-sample message
+    while harness.states[-1].sample_index < 999 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert [s.sample_index for s in harness.states[-4:]] == [969, 979, 989, 999]
     assert harness.states[-1].slip_updates == (1000 - 400) // 2 + 1
 
 
@@ -287,19 +291,22 @@ def test_entry_point_process_runs_and_stops_cleanly(tmp_path, model_file):
     executor.add_node(peer)
     try:
         deadline = time.monotonic() + 30.0
-        while pub.get_subscription_count() < 1:
+        while pub.get_subscription_count() < 1 or peer.count_publishers('tactile/state') < 1:
             assert time.monotonic() < deadline, 'node process did not come up'
+            executor.spin_once(timeout_sec=0.05)
+        end = time.monotonic() + 0.5  # let both endpoints finish matching
+        while time.monotonic() < end:
             executor.spin_once(timeout_sec=0.05)
         x = stream()
         helper = Harness.__new__(Harness)  # only for message construction
         helper.sequence = 0
-        for i in range(0, 3000, CHUNK):  # lockstep: the node's input is best effort
+        for k, i in enumerate(range(0, 3000, CHUNK)):  # lockstep: the input is best effort
             pub.publish(Harness.message(helper, x[i:i + CHUNK]))
-            deadline = time.monotonic() + 10.0
-            while (not got or got[-1].sample_index < i + CHUNK - 1) and \
-                    time.monotonic() < deadline:
+            deadline = time.monotonic() + 5.0
+            while len(got) < k + 1:
+                assert time.monotonic() < deadline, f'no state for message {k}'
                 executor.spin_once(timeout_sec=0.01)
-        assert got and got[-1].sample_index == 2999 and got[-1].data_valid
+        assert got[-1].sample_index == 2999 and got[-1].data_valid
         assert got[-1].tared and got[-1].force_valid  # tared after 0.5 s, model loaded
     finally:
         proc.send_signal(signal.SIGINT)
@@ -313,3 +320,22 @@ def test_entry_point_process_runs_and_stops_cleanly(tmp_path, model_file):
         rclpy.shutdown(context=context)
     assert proc.returncode == 0, out
     assert 'perception up' in out
+
+
+def test_large_messages_give_a_state_per_force_instant(harness):
+    """A 200-sample message yields 10 states (force at 100 Hz whatever the batch size), equal
+    to the pipeline fed in 20-sample pieces."""
+    x = stream()
+    before = len(harness.states)
+    harness.pub.publish(harness.message(x[:200]))
+    harness.wait_states(before + 10)
+    states = harness.states[before:]
+    assert [s.sample_index for s in states] == list(range(19, 200, 20))
+    stamps = [s.header.stamp.sec * 10**9 + s.header.stamp.nanosec for s in states]
+    assert np.all(np.diff(stamps) == 10_000_000)  # 10 ms apart
+    harness.send(x[200:207])  # an unaligned message: one state at its end
+    assert harness.states[-1].sample_index == 206
+    before = len(harness.states)
+    harness.pub.publish(harness.message(x[207:260]))  # force instants at 219, 239, 259
+    harness.wait_states(before + 3)
+    assert [s.sample_index for s in harness.states[before:]] == [219, 239, 259]
