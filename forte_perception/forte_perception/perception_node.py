@@ -318,7 +318,7 @@ class PerceptionNode(Node):
             # force is published at force_rate whatever the input batch size
             step = self._pipeline.config.force_step
             done = self._pipeline.samples_seen
-            ends = [i + 1 for i in range(count) if (done + i + 1) % step == 0]
+            ends = (np.flatnonzero((done + np.arange(1, count + 1)) % step == 0) + 1).tolist()
             if not ends or ends[-1] != count:
                 ends.append(count)
             begin = 0
