@@ -20,6 +20,7 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', share('config/*.yaml')),
         ('share/' + package_name + '/launch', share('launch/*.py')),
+        ('share/' + package_name + '/udev', share('udev/*.rules')),
     ],
     install_requires=['setuptools'],
     zip_safe=False,

@@ -83,7 +83,9 @@ msgs_hash=$(hash_of "$root"/forte_msgs/CMakeLists.txt "$root"/forte_msgs/package
   "$root"/forte_msgs/msg/* "$root"/forte_msgs/srv/* "$root"/forte_msgs/action/*; echo "$use_system_ros")
 if ! stamp_ok msgs "$msgs_hash" || [ ! -d "$install/share/forte_msgs" ]; then
   say "building forte_msgs (about 30 s)"
-  rm -rf "$build/forte_msgs" "$install"
+  # Rebuild in place: install/ stays importable for processes already using it
+  # (`make clean` removes it for a from-scratch build).
+  rm -rf "$build/forte_msgs"
   mkdir -p "$build/forte_msgs"
   prefix_path=$venv
   [ $use_system_ros = 1 ] && prefix_path=$AMENT_PREFIX_PATH
