@@ -124,7 +124,12 @@ def record_from_result(result: object, task: Task) -> TrialRecord:
 def run_benchmark(tasks: Sequence[Task], jobs: int,
                   progress: Callable[[int, int, TrialRecord], None] | None = None,
                   runner: Callable[[Task], TrialRecord] = run_task) -> list[TrialRecord]:
-    """Run every task, in ``jobs`` worker processes (1: in this process)."""
+    """Run every task, in ``jobs`` worker processes (1: in this process).
+
+    Workers are spawned, not forked: a fork of a process that runs DDS threads (any process
+    that used rclpy, e.g. a test session) can deadlock in the child. ``runner`` must
+    therefore be importable by reference (a module-level function).
+    """
     records: list[TrialRecord] = []
     if jobs <= 1:
         for task in tasks:
@@ -132,7 +137,7 @@ def run_benchmark(tasks: Sequence[Task], jobs: int,
             if progress:
                 progress(len(records), len(tasks), records[-1])
         return records
-    with get_context('spawn' if sys.platform == 'darwin' else 'fork').Pool(jobs) as pool:
+    with get_context('spawn').Pool(jobs) as pool:
         for record in pool.imap_unordered(runner, tasks, chunksize=1):
             records.append(record)
             if progress:
