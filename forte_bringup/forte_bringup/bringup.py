@@ -36,7 +36,7 @@ from collections import deque
 from pathlib import Path
 from typing import Any, TextIO
 
-from forte_bringup.graph import GRAPHS, GraphSpec, NodeSpec, params_file
+from forte_bringup.graph import GRAPHS, GraphSpec, NodeSpec, parameter_text, params_file
 from forte_bringup.ros_isolation import isolate_ros_network
 
 #: lifecycle_msgs/msg/Transition ids used here.
@@ -72,17 +72,12 @@ def find_executable(package: str, executable: str) -> str:
     return found
 
 
-def _parameter_text(value: object) -> str:
-    if isinstance(value, bool):
-        return 'true' if value else 'false'
-    return str(value)
-
-
 def node_command(
     spec: NodeSpec,
     params: Path,
     arguments: dict[str, str],
     executable: str | None = None,
+    graph: GraphSpec | None = None,
 ) -> list[str]:
     """Command line of one node: executable and ``--ros-args`` as the launch file sets them.
 
@@ -96,6 +91,13 @@ def node_command(
         Graph argument values; empty strings mean "not given" (the YAML value stays).
     executable : str, optional
         Path of the executable (default: :func:`find_executable`).
+    graph : GraphSpec, optional
+        The graph whose argument kinds type the values (default: text as given).
+
+    Raises
+    ------
+    BringupError
+        If an argument value is not of its kind (e.g. ``rate:=fast``).
     """
     command = [executable or find_executable(spec.package, spec.executable), '--ros-args',
                '-r', f'__node:={spec.name}', '--params-file', str(params)]
@@ -108,9 +110,14 @@ def node_command(
     for parameter, argument in spec.argument_parameters:
         value = arguments.get(argument, '')
         if value != '':
+            if graph is not None:
+                try:
+                    value = parameter_text(graph.argument(argument).typed(value))
+                except ValueError as error:
+                    raise BringupError(f'argument {argument}:={value}: {error}') from error
             command += ['-p', f'{parameter}:={value}']
     for parameter, value in spec.fixed_parameters:
-        command += ['-p', f'{parameter}:={_parameter_text(value)}']
+        command += ['-p', f'{parameter}:={parameter_text(value)}']
     return command
 
 
@@ -234,9 +241,9 @@ class Bringup:
         """Command line of every process of the graph (nodes, then the recorder)."""
         out = {}
         for spec in self.graph.nodes:
-            command = node_command(spec, self.params, self.arguments)
+            command = node_command(spec, self.params, self.arguments, graph=self.graph)
             for parameter, value in self.extra_parameters.get(spec.name, {}).items():
-                command += ['-p', f'{parameter}:={_parameter_text(value)}']
+                command += ['-p', f'{parameter}:={parameter_text(value)}']
             out[spec.name] = command
         if self.arguments.get('record', 'false').lower() in ('true', '1', 'yes'):
             command = [sys.executable, '-m', 'forte_bringup.record']

@@ -12,6 +12,8 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import yaml
+
 
 @dataclass(frozen=True)
 class NodeSpec:
@@ -47,11 +49,48 @@ class NodeSpec:
 
 @dataclass(frozen=True)
 class Argument:
-    """A graph argument (``ros2 launch ... name:=value`` / ``forte_bringup ... --arg``)."""
+    """A graph argument (``ros2 launch ... name:=value`` / ``forte_bringup ... name:=value``).
+
+    ``kind`` is the type of the node parameter the argument sets (``str``, ``float``,
+    ``int`` or ``bool``): ``rate:=0`` must reach a double parameter as 0.0, not as the
+    integer 0 that rclpy would refuse.
+    """
 
     name: str
     default: str
     description: str
+    kind: str = 'str'
+
+    def typed(self, text: str) -> object:
+        """The argument text as a parameter value of :attr:`kind`.
+
+        Raises
+        ------
+        ValueError
+            If the text is not a value of that kind.
+        """
+        if self.kind == 'float':
+            return float(text)
+        if self.kind == 'int':
+            return int(text)
+        if self.kind == 'bool':
+            if text.lower() not in ('true', 'false', '1', '0'):
+                raise ValueError(f'{self.name}: expected true or false, got {text!r}')
+            return text.lower() in ('true', '1')
+        return text
+
+
+def parameter_text(value: object) -> str:
+    """A typed value as the text of ``--ros-args -p name:=<text>`` (YAML, type preserved)."""
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, int):
+        return str(value)
+    text = str(value)
+    return text if isinstance(yaml.safe_load(text or "''"), str) else "'" + text.replace(
+        "'", "''") + "'"
 
 
 @dataclass(frozen=True)
@@ -63,6 +102,13 @@ class GraphSpec:
     params_file: str
     nodes: tuple[NodeSpec, ...]
     arguments: tuple[Argument, ...] = field(default_factory=tuple)
+
+    def argument(self, name: str) -> Argument:
+        """The argument called ``name``."""
+        for argument in self.arguments:
+            if argument.name == name:
+                return argument
+        raise KeyError(f'graph {self.name} has no argument {name!r}')
 
     def node(self, name: str) -> NodeSpec:
         """The node called ``name``."""
@@ -129,7 +175,7 @@ GRAPHS: dict[str, GraphSpec] = {
             Argument('object', '', 'object of the grasp scene, e.g. raspberry, soda_can '
                      '(empty: the YAML value)'),
             Argument('seed', '', 'seed of the scene (placement, material spread, noise; '
-                     'empty: the YAML value)'),
+                     'empty: the YAML value)', kind='int'),
         ),
     ),
     'replay': GraphSpec(
@@ -149,7 +195,7 @@ GRAPHS: dict[str, GraphSpec] = {
             *COMMON_ARGUMENTS,
             Argument('bag', '', 'bag to replay (rosbag2 MCAP folder or .mcap file); required'),
             Argument('rate', '', 'replay speed factor, 1.0 = recorded timing, 0 = as fast as '
-                     'possible (empty: the YAML value)'),
+                     'possible (empty: the YAML value)', kind='float'),
         ),
     ),
 }

@@ -8,7 +8,6 @@ nodes are configured on start and activated once inactive (launch_ros lifecycle 
 """
 from __future__ import annotations
 
-import yaml
 from launch import LaunchContext, LaunchDescription
 from launch.actions import (
     DeclareLaunchArgument,
@@ -27,18 +26,14 @@ from launch_ros.events.lifecycle import ChangeState
 from launch_ros.substitutions import FindPackageShare
 from lifecycle_msgs.msg import Transition
 
-from forte_bringup.graph import GRAPHS, NodeSpec
+from forte_bringup.graph import GRAPHS, GraphSpec, NodeSpec
 
 
-def _typed(text: str) -> object:
-    """A launch argument string as the typed parameter value ``-p name:=text`` would give."""
-    return yaml.safe_load(text) if text != '' else ''
-
-
-def _node_actions(spec: NodeSpec, context: LaunchContext, params_file: str) -> list:
+def _node_actions(spec: NodeSpec, graph: GraphSpec, context: LaunchContext,
+                  params_file: str) -> list:
     arguments = {name: LaunchConfiguration(name).perform(context)
                  for name in {a for _, a in (*spec.argument_parameters, *spec.argument_remaps)}}
-    overrides = {parameter: _typed(arguments[argument])
+    overrides = {parameter: graph.argument(argument).typed(arguments[argument])
                  for parameter, argument in spec.argument_parameters if arguments[argument]}
     overrides.update(dict(spec.fixed_parameters))
     remappings = list(spec.remappings)
@@ -82,7 +77,7 @@ def graph_launch_description(graph_name: str) -> LaunchDescription:
         params_file = LaunchConfiguration('params_file').perform(context)
         actions = []
         for spec in graph.nodes:
-            actions += _node_actions(spec, context, params_file)
+            actions += _node_actions(spec, graph, context, params_file)
         if IfCondition(LaunchConfiguration('record')).evaluate(context):
             output = LaunchConfiguration('bag_output').perform(context)
             actions.append(ExecuteProcess(

@@ -31,7 +31,7 @@ from forte_bringup.bringup import (
     node_command,
     parse_graph_arguments,
 )
-from forte_bringup.graph import GRAPHS, params_file
+from forte_bringup.graph import GRAPHS, parameter_text, params_file
 
 
 def modules_exist(graph: str) -> list[str]:
@@ -64,8 +64,25 @@ def test_node_command_matches_the_launch_description():
     assert control[-2:] == ['-p', 'dry_run:=true']  # replay never moves anything
     source = node_command(replay.node('bag_replay'), params_file('replay'),
                           parse_graph_arguments(replay, ['bag:=/data/b', 'rate:=0']),
-                          executable='x')
-    assert source[-4:] == ['-p', 'bag_path:=/data/b', '-p', 'rate:=0']
+                          executable='x', graph=replay)
+    # rate is a double parameter: the integer-looking 0 must go out as 0.0
+    assert source[-4:] == ['-p', 'bag_path:=/data/b', '-p', 'rate:=0.0']
+    with pytest.raises(BringupError, match='rate:=fast'):
+        node_command(replay.node('bag_replay'), params_file('replay'),
+                     parse_graph_arguments(replay, ['bag:=b', 'rate:=fast']), executable='x',
+                     graph=replay)
+
+
+def test_argument_values_keep_their_parameter_type():
+    sim = GRAPHS['sim']
+    assert sim.argument('seed').typed('7') == 7
+    assert parameter_text(GRAPHS['replay'].argument('rate').typed('2')) == '2.0'
+    assert parameter_text('raspberry') == 'raspberry'
+    assert parameter_text('yes') == "'yes'"  # YAML would read a bare yes as a boolean
+    assert parameter_text('123') == "'123'"  # a string parameter that looks like a number
+    assert parameter_text(True) == 'true'
+    with pytest.raises(ValueError):
+        sim.argument('seed').typed('1.5')
 
 
 def test_arguments_are_checked():
@@ -288,7 +305,8 @@ def test_replay_graph_drives_perception_from_a_bag(watcher, tmp_path):
             message.data = (0.05 + rng.normal(0.0, 0.001, 120)).tolist()
             writer.write('tactile/frames', 1000 * 10**9 + index * 10**7,
                          serialize_message(message))
-    bringup = Bringup('replay', {'bag': str(bag)}, log_dir=tmp_path / 'logs', echo=None)
+    bringup = Bringup('replay', {'bag': str(bag), 'rate': '2'}, log_dir=tmp_path / 'logs',
+                      echo=None)
     bringup.start(timeout=60.0)
     try:
         assert wait_for(lambda: watcher.counts['tactile/state'] > 20, 30.0), watcher.counts
