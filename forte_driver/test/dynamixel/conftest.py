@@ -1,0 +1,18 @@
+"""Fixtures shared by the Dynamixel tests.
+
+The simulated servo answers from a Python process on a shared 2-core machine, so its
+status packets can take longer than a servo's silicon. dynamixel-sdk derives every packet
+timeout from its ``LATENCY_TIMER`` setting (16 ms, the U2D2's USB latency timer); raising it
+for these tests gives the peer the slack a slow USB adapter would need, without changing any
+protocol behaviour: a servo that does not answer at all still times out.
+"""
+import dynamixel_sdk.port_handler
+import pytest
+
+#: Latency allowance for the simulated servo [ms] (packet timeout = 2 x this + 2 ms + bytes).
+SIMULATED_SERVO_LATENCY_MS = 64
+
+
+@pytest.fixture(autouse=True)
+def slow_peer_latency(monkeypatch):
+    monkeypatch.setattr(dynamixel_sdk.port_handler, 'LATENCY_TIMER', SIMULATED_SERVO_LATENCY_MS)
