@@ -18,7 +18,7 @@ test: setup
 	@$(MAKE) --no-print-directory test-python
 
 test-python:
-	@$(ENV) && cd $(ROOT) && python -m pytest $(PYTEST_ARGS)
+	@$(ENV) && cd $(ROOT) && python tools/run_tests.py $(PYTEST_ARGS)
 
 test-firmware:
 	@if [ -f $(ROOT)/firmware/Makefile ]; then $(MAKE) --no-print-directory -C $(ROOT)/firmware test; \
@@ -26,7 +26,7 @@ test-firmware:
 
 ## lint: ruff over every Python package
 lint:
-	@$(ENV) && cd $(ROOT) && ruff check $$(ls -d forte_msgs forte_driver forte_perception forte_control forte_bringup hardware benchmarks conftest.py 2>/dev/null) && echo "[lint] ruff: clean"
+	@$(ENV) && cd $(ROOT) && ruff check $$(ls -d forte_msgs forte_driver forte_perception forte_control forte_bringup hardware benchmarks tools conftest.py 2>/dev/null) && echo "[lint] ruff: clean"
 
 ## demo: the simulated FORTE scene with the full graph (see README)
 demo: setup
