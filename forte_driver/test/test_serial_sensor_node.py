@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.executors import MultiThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
@@ -38,7 +38,9 @@ class Harness:
         self.listener.create_subscription(TactileFrames, 'tactile/frames', self.frames.append, qos)
         self.listener.create_subscription(DiagnosticArray, '/diagnostics',
                                           self.diagnostics.append, 10)
-        self.executor = MultiThreadedExecutor(num_threads=2, context=self.context)
+        # single-threaded: rclpy's MultiThreadedExecutor re-dispatches ready entities in a loop
+        # (ros2/rclpy#1223) and starved the driver's reader thread of the GIL
+        self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.executor.add_node(self.listener)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
