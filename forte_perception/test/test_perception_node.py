@@ -8,7 +8,7 @@ import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from perception_signals import random_walk, slip_bursts
-from rclpy.executors import MultiThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -51,7 +51,9 @@ class Harness:
                                       self.diagnostics.append, 10)
         self.tare = self.peer.create_client(Tare, 'perception/tare')
         self.reset = self.peer.create_client(Trigger, 'perception/reset')
-        self.executor = MultiThreadedExecutor(num_threads=3, context=self.context)
+        # single-threaded (the tare service is a coroutine): rclpy's MultiThreadedExecutor
+        # re-dispatches ready entities in a loop (ros2/rclpy#1223) and hung service calls here
+        self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.executor.add_node(self.peer)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
