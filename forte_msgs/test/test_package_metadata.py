@@ -41,7 +41,6 @@ def test_runtime_dependencies_use_rosdep_keys(name):
     package = parse_package(ROOT / name / 'package.xml')
     depends = {d.name for d in package.exec_depends + package.build_depends}
     assert {'rclpy', 'forte_msgs'} <= depends
-    assert 'python3-numpy' in depends
     for python_dependency in (d for d in depends if d.startswith('python')):
         assert python_dependency.startswith('python3-'), python_dependency
 

@@ -1,0 +1,201 @@
+"""Every import of each FORTE package is declared in its package.xml.
+
+``rosdep install --from-paths src`` installs what the package.xml files declare and nothing
+else: an undeclared import works in the development venv and fails on a robot. For each
+package this parses every ``.py`` file of its module folder, ``test/`` and ``launch/`` with
+``ast`` (imports inside functions and ``try`` blocks included, and
+``pytest.importorskip('name')``), maps each imported top-level module to the package.xml
+key it needs (:data:`ROSDEP_KEYS`) and checks the declaration: runtime code needs
+``<depend>``/``<exec_depend>``, test-only imports may be ``<test_depend>``. Libraries
+without a rosdep key (:data:`PIP_ONLY`) must be in README's pip command instead. In reverse,
+every ``<depend>``/``<exec_depend>`` must be imported by runtime code or be in
+:data:`RUNTIME_ONLY` with its reason. An import in no table fails, naming file and module.
+"""
+from __future__ import annotations
+
+import ast
+import re
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+import pytest
+from catkin_pkg.package import parse_package
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGES = ('forte_msgs', 'forte_driver', 'forte_perception', 'forte_control', 'forte_bringup')
+
+#: Imported top-level module -> the package.xml key it needs: Python libraries by their key
+#: in ros/rosdistro rosdep/python.yaml, ROS 2 packages (and FORTE's own) by package name.
+ROSDEP_KEYS: dict[str, str] = {
+    'catkin_pkg': 'python3-catkin-pkg',
+    'matplotlib': 'python3-matplotlib',
+    'numpy': 'python3-numpy',
+    'pytest': 'python3-pytest',
+    'scipy': 'python3-scipy',
+    'serial': 'python3-serial',  # pyserial
+    'sklearn': 'python3-sklearn',  # scikit-learn
+    'yaml': 'python3-yaml',  # PyYAML
+    **{name: name for name in (
+        'control_msgs', 'diagnostic_msgs', 'dynamixel_sdk', 'geometry_msgs', 'launch',
+        'launch_pytest', 'launch_ros', 'lifecycle_msgs', 'rcl_interfaces', 'rclpy',
+        'rosgraph_msgs', 'sensor_msgs', 'std_msgs', 'std_srvs', *PACKAGES)},
+}
+
+#: Imported module -> pip distribution, for libraries that have no rosdep key (not
+#: declared in package.xml; README's robot section installs them with pip).
+PIP_ONLY: dict[str, str] = {
+    'mcap': 'mcap',
+    'mcap_ros2': 'mcap-ros2-support',
+    'rosbags': 'rosbags',
+}
+
+#: (package, key) declared as <depend>/<exec_depend> although no runtime code imports it.
+RUNTIME_ONLY: dict[tuple[str, str], str] = {
+    ('forte_msgs', 'rosidl_default_runtime'): 'the generated interfaces load it',
+    ('forte_msgs', 'std_msgs'): 'the interface definitions use std_msgs/Header',
+    ('forte_driver', 'lifecycle_msgs'): 'services and transition events of its lifecycle '
+                                        'nodes, used through rclpy.lifecycle',
+    ('forte_bringup', 'xacro'): 'expands the installed urdf/forte_gripper.urdf.xacro',
+}
+
+#: Packages that import message classes by type name (importlib): forte_record records and
+#: bag_replay_node replays the topics of forte_bringup/bags.py, so the packages of the
+#: message types named there are runtime imports of both.
+BY_TYPE_NAME = ('forte_driver', 'forte_bringup')
+TOPIC_TYPES_FILE = ROOT / 'forte_bringup' / 'forte_bringup' / 'bags.py'
+
+
+def imported_modules(path: Path) -> set[str]:
+    """Top-level names of the modules ``path`` imports absolutely, anywhere in the file.
+
+    Parameters
+    ----------
+    path : Path
+        Python source file.
+
+    Returns
+    -------
+    set of str
+        E.g. ``{'numpy', 'rclpy', 'forte_msgs'}`` for ``from forte_msgs.msg import X``.
+    """
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module)
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+              and node.func.attr == 'importorskip' and node.args
+              and isinstance(node.args[0], ast.Constant)):
+            names.add(node.args[0].value)
+    return {name.split('.')[0] for name in names}
+
+
+def recorded_type_packages() -> set[str]:
+    """Packages of the message types (``pkg/msg/Name`` literals) in forte_bringup/bags.py."""
+    tree = ast.parse(TOPIC_TYPES_FILE.read_text())
+    return {node.value.split('/')[0] for node in ast.walk(tree)
+            if isinstance(node, ast.Constant) and isinstance(node.value, str)
+            and re.fullmatch(r'\w+/msg/\w+', node.value)}
+
+
+def third_party_imports(package: str) -> dict[str, dict[str, set[str]]]:
+    """Imports of ``package`` other than the standard library, itself and local helpers.
+
+    Parameters
+    ----------
+    package : str
+        One of :data:`PACKAGES`.
+
+    Returns
+    -------
+    dict
+        ``{'runtime': {module: files}, 'test': {module: files}}``; runtime = module folder
+        and ``launch/``, test = ``test/`` (modules runtime code imports are left out of it).
+    """
+    folder = ROOT / package
+    scopes = {'runtime': [*(folder / package).rglob('*.py'), *(folder / 'launch').rglob('*.py')],
+              'test': list((folder / 'test').rglob('*.py'))}
+    # test helpers imported by their own name (perception_signals), and test subfolders
+    local = {part.removesuffix('.py') for path in scopes['test']
+             for part in path.relative_to(folder / 'test').parts} - set(PACKAGES)
+    ignored = sys.stdlib_module_names | local | {package}
+    found: dict[str, dict[str, set[str]]] = {'runtime': defaultdict(set), 'test': defaultdict(set)}
+    for scope, paths in scopes.items():
+        for path in paths:
+            for module in imported_modules(path) - ignored:
+                found[scope][module].add(str(path.relative_to(ROOT)))
+    if package in BY_TYPE_NAME:
+        for module in recorded_type_packages():
+            found['runtime'][module].add(f'{TOPIC_TYPES_FILE.relative_to(ROOT)} (topic types)')
+    for module in found['runtime']:
+        found['test'].pop(module, None)
+    return found
+
+
+def test_topic_types_are_found():
+    assert {'forte_msgs', 'sensor_msgs'} <= recorded_type_packages()
+
+
+@pytest.mark.parametrize('package', PACKAGES)
+def test_every_import_is_declared(package: str):
+    manifest = parse_package(ROOT / package / 'package.xml')
+    runtime_keys = {d.name for d in manifest.exec_depends}  # <depend> and <exec_depend>
+    allowed = {'runtime': runtime_keys,
+               'test': runtime_keys | {d.name for d in manifest.test_depends}}
+    tags = {'runtime': '<depend> or <exec_depend>', 'test': '<test_depend> (or <depend>)'}
+    problems = []
+    for scope, modules in third_party_imports(package).items():
+        for module, files in sorted(modules.items()):
+            where = ', '.join(sorted(files))
+            if module in PIP_ONLY:
+                continue
+            if module not in ROSDEP_KEYS:
+                problems.append(
+                    f'{where}: imports {module!r}, which is in no table of {Path(__file__).name}:'
+                    ' add its rosdep key to ROSDEP_KEYS and package.xml, or, if it has none,'
+                    ' its pip distribution to PIP_ONLY and README')
+            elif ROSDEP_KEYS[module] not in allowed[scope]:
+                problems.append(f'{where}: imports {module!r}: declare {ROSDEP_KEYS[module]} '
+                                f'as {tags[scope]} in {package}/package.xml')
+    assert not problems, '\n'.join(problems)
+
+
+@pytest.mark.parametrize('package', PACKAGES)
+def test_every_runtime_dependency_is_used(package: str):
+    manifest = parse_package(ROOT / package / 'package.xml')
+    declared = {d.name for d in manifest.exec_depends}
+    runtime = third_party_imports(package)['runtime']
+    used = {ROSDEP_KEYS.get(module) for module in runtime}
+    excused = {key for (owner, key) in RUNTIME_ONLY if owner == package}
+    unused = declared - used - excused
+    assert not unused, (
+        f'{package}/package.xml declares {sorted(unused)} as <depend>/<exec_depend> but no '
+        'runtime code imports them: remove them, make them <test_depend>, or add them to '
+        'RUNTIME_ONLY with the reason')
+    stale = excused - declared
+    assert not stale, f'RUNTIME_ONLY names {sorted(stale)}, no longer declared by {package}'
+
+
+def test_pip_only_dependencies_are_installed_by_readme_and_setup():
+    readme_commands = [line for line in (ROOT / 'README.md').read_text().splitlines()
+                       if 'pip install' in line]
+    requirements = (ROOT / 'requirements' / 'python.txt').read_text().split()
+    for distribution in PIP_ONLY.values():
+        name = re.compile(rf'(?<![\w-]){re.escape(distribution)}(?![\w-])')
+        assert any(name.search(line) for line in readme_commands), (
+            f'README.md has no `pip install` line naming {distribution} (pip-only: no rosdep '
+            'key, so rosdep leaves it out on a robot)')
+        assert distribution in requirements, f'requirements/python.txt lacks {distribution}'
+
+
+def test_test_module_basenames_are_unique():
+    """Two test modules with one basename break pytest's default (prepend) import mode."""
+    where = defaultdict(list)
+    for top in (*PACKAGES, 'hardware'):
+        for path in (ROOT / top / 'test').rglob('*.py'):
+            if path.name not in ('conftest.py', '__init__.py'):
+                where[path.name].append(str(path.relative_to(ROOT)))
+    duplicates = {name: paths for name, paths in where.items() if len(paths) > 1}
+    assert not duplicates, duplicates
