@@ -36,7 +36,14 @@ from collections import deque
 from pathlib import Path
 from typing import Any, TextIO
 
-from forte_bringup.graph import GRAPHS, GraphSpec, NodeSpec, parameter_text, params_file
+from forte_bringup.graph import (
+    GRAPHS,
+    RECORDER,
+    GraphSpec,
+    NodeSpec,
+    parameter_text,
+    params_file,
+)
 from forte_bringup.ros_isolation import isolate_ros_network
 
 #: lifecycle_msgs/msg/Transition ids used here.
@@ -246,10 +253,12 @@ class Bringup:
                 command += ['-p', f'{parameter}:={parameter_text(value)}']
             out[spec.name] = command
         if self.arguments.get('record', 'false').lower() in ('true', '1', 'yes'):
-            command = [sys.executable, '-m', 'forte_bringup.record']
+            # the forte_record console script, found like the node executables (the
+            # launch files start it as a launch_ros Node of the same package)
+            command = [find_executable(RECORDER.package, RECORDER.executable)]
             if self.arguments.get('bag_output'):
                 command += ['-o', self.arguments['bag_output']]
-            out['recorder'] = command
+            out['recorder'] = command + ['--ros-args', '-r', f'__node:={RECORDER.name}']
         return out
 
     # start / stop ----------------------------------------------------------------------

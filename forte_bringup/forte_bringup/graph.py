@@ -127,6 +127,10 @@ CONTROL = NodeSpec(
     argument_remaps=(('arm/cmd_vel', 'arm_cmd_vel_topic'),),
 )
 
+#: The bag recorder that ``record:=true`` adds to every graph (console script of
+#: forte_bringup, installed in ``lib/forte_bringup/`` like the node executables).
+RECORDER = NodeSpec('forte_bringup', 'forte_record', 'forte_recorder')
+
 COMMON_ARGUMENTS = (
     Argument('params_file', '', 'parameter YAML for every node of this graph '
              '(default: config/<graph>.yaml of forte_bringup)'),
@@ -166,7 +170,8 @@ GRAPHS: dict[str, GraphSpec] = {
         'sim.yaml',
         (
             NodeSpec('forte_driver', 'sim_node', 'sim', lifecycle=True,
-                     argument_parameters=(('object', 'object'), ('seed', 'seed'))),
+                     argument_parameters=(('object', 'object'), ('seed', 'seed'),
+                                          ('real_time_factor', 'real_time_factor'))),
             PERCEPTION,
             CONTROL,
         ),
@@ -176,6 +181,10 @@ GRAPHS: dict[str, GraphSpec] = {
                      '(empty: the YAML value)'),
             Argument('seed', '', 'seed of the scene (placement, material spread, noise; '
                      'empty: the YAML value)', kind='int'),
+            Argument('real_time_factor', '', 'speed of the simulation: simulated seconds '
+                     'per wall-clock second (1.0 = real time, 0.5 = half speed, 0 = as fast '
+                     'as possible; perception and control follow on /clock; empty: the YAML '
+                     'value)', kind='float'),
         ),
     ),
     'replay': GraphSpec(

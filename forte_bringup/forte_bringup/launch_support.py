@@ -5,14 +5,16 @@ ROS 2 install but not on a bare machine (there, :mod:`forte_bringup.bringup` sta
 same graph). Every argument is declared with its description; nodes are created in an
 ``OpaqueFunction`` so that an empty argument leaves the YAML value in force; lifecycle
 nodes are configured on start and activated once inactive (launch_ros lifecycle events).
+The recorder (``record:=true``) is a launch_ros ``Node`` too: launch_ros finds the
+``forte_record`` console script in ``lib/forte_bringup/`` as ``ros2 run`` does (colcon does
+not put it on ``PATH``).
 """
 from __future__ import annotations
 
-from launch import LaunchContext, LaunchDescription
+from launch import Action, LaunchContext, LaunchDescription
 from launch.actions import (
     DeclareLaunchArgument,
     EmitEvent,
-    ExecuteProcess,
     LogInfo,
     OpaqueFunction,
     RegisterEventHandler,
@@ -26,11 +28,30 @@ from launch_ros.events.lifecycle import ChangeState
 from launch_ros.substitutions import FindPackageShare
 from lifecycle_msgs.msg import Transition
 
-from forte_bringup.graph import GRAPHS, GraphSpec, NodeSpec
+from forte_bringup.graph import GRAPHS, RECORDER, GraphSpec, NodeSpec
 
 
 def _node_actions(spec: NodeSpec, graph: GraphSpec, context: LaunchContext,
-                  params_file: str) -> list:
+                  params_file: str) -> list[Action]:
+    """The actions that start one node of ``graph`` (and drive it if it is a lifecycle node).
+
+    Parameters
+    ----------
+    spec : NodeSpec
+        The node.
+    graph : GraphSpec
+        Its graph, whose argument kinds type the argument values.
+    context : LaunchContext
+        Context the launch arguments are read from.
+    params_file : str
+        Parameter YAML of the graph.
+
+    Returns
+    -------
+    list of Action
+        A ``Node``; or, for a lifecycle node, the handler that activates it once inactive,
+        the ``LifecycleNode`` and the event that configures it.
+    """
     arguments = {name: LaunchConfiguration(name).perform(context)
                  for name in {a for _, a in (*spec.argument_parameters, *spec.argument_remaps)}}
     overrides = {parameter: graph.argument(argument).typed(arguments[argument])
@@ -61,8 +82,39 @@ def _node_actions(spec: NodeSpec, graph: GraphSpec, context: LaunchContext,
     return [activate_when_inactive, node, configure]
 
 
+def _recorder_action(context: LaunchContext) -> Node:
+    """The ``forte_record`` node (``record:=true``), writing to ``bag_output`` if given.
+
+    Parameters
+    ----------
+    context : LaunchContext
+        Context the ``bag_output`` argument is read from.
+
+    Returns
+    -------
+    Node
+        The recorder as a launch_ros node of package forte_bringup.
+    """
+    output = LaunchConfiguration('bag_output').perform(context)
+    return Node(package=RECORDER.package, executable=RECORDER.executable, name=RECORDER.name,
+                namespace='', arguments=['-o', output] if output else [],
+                output='screen', emulate_tty=True)
+
+
 def graph_launch_description(graph_name: str) -> LaunchDescription:
-    """The launch description of ``graph_name`` (``hardware``, ``sim`` or ``replay``)."""
+    """The launch description of a graph.
+
+    Parameters
+    ----------
+    graph_name : str
+        ``hardware``, ``sim`` or ``replay`` (a key of :data:`forte_bringup.graph.GRAPHS`).
+
+    Returns
+    -------
+    LaunchDescription
+        Every argument of the graph declared with its description and default, then the
+        graph's nodes (and the recorder if ``record:=true``).
+    """
     graph = GRAPHS[graph_name]
     declared = []
     for argument in graph.arguments:
@@ -73,15 +125,13 @@ def graph_launch_description(graph_name: str) -> LaunchDescription:
         declared.append(DeclareLaunchArgument(
             argument.name, default_value=default, description=argument.description))
 
-    def setup(context: LaunchContext) -> list:
+    def setup(context: LaunchContext) -> list[Action]:
         params_file = LaunchConfiguration('params_file').perform(context)
         actions = []
         for spec in graph.nodes:
             actions += _node_actions(spec, graph, context, params_file)
         if IfCondition(LaunchConfiguration('record')).evaluate(context):
-            output = LaunchConfiguration('bag_output').perform(context)
-            actions.append(ExecuteProcess(
-                cmd=['forte_record', *(['-o', output] if output else [])], output='screen'))
+            actions.append(_recorder_action(context))
         return actions
 
     return LaunchDescription([

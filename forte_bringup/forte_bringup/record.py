@@ -161,12 +161,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--all', action='store_true', help='record every topic')
     parser.add_argument('--duration', type=float, default=0.0,
                         help='stop after this many seconds (default: until Ctrl-C)')
-    args, ros_args = parser.parse_known_args(argv)
+    command_line = [sys.argv[0], *(sys.argv[1:] if argv is None else argv)]
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
     import rclpy
+    from rclpy.utilities import remove_ros_args
 
-    rclpy.init(args=[sys.argv[0], *ros_args])
+    # ROS arguments (``--ros-args ... [--]``, as ros2 run / launch_ros add them, e.g.
+    # ``-r __node:=forte_recorder``) go to rclpy; the rest must be ours (a typo fails)
+    args = parser.parse_args(remove_ros_args(command_line)[1:])
+    rclpy.init(args=command_line)
     recorder = None
     stop = {'now': False}
 
