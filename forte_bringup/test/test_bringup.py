@@ -102,7 +102,10 @@ def test_record_argument_adds_the_recorder(tmp_path):
     bringup = Bringup('sim', {'record': 'true', 'bag_output': str(tmp_path / 'b')}, echo=None)
     commands = bringup.commands()
     assert list(commands) == ['sim', 'perception', 'grasp_controller', 'recorder']
-    assert commands['recorder'][-2:] == ['-o', str(tmp_path / 'b')]
+    # the installed console script, found like the nodes (as the launch files' Node does)
+    assert commands['recorder'] == [find_executable('forte_bringup', 'forte_record'),
+                                    '-o', str(tmp_path / 'b'),
+                                    '--ros-args', '-r', '__node:=forte_recorder']
     assert 'recorder' not in Bringup('sim', echo=None).commands()
 
 
