@@ -8,8 +8,9 @@ per package) removes that coupling; each process still isolates its ROS domain t
 the root conftest.
 
 Usage: ``python tools/run_tests.py [pytest args...]`` from the repository root (``make
-test-python``). Prints a line per file and a closing ``N passed, N failed, N skipped``
-line; exits non-zero if any test failed or errored, or a file could not be collected.
+test-python``). Prints a line per file, a line per top-level folder (for a ROS package, the
+count ``colcon test`` reports for it) and a closing ``N passed, N failed, N skipped`` line;
+exits non-zero if any test failed or errored, or a file could not be collected.
 """
 from __future__ import annotations
 
@@ -47,6 +48,7 @@ def counts_from_junit(report: Path) -> dict[str, int]:
 def main(pytest_args: list[str]) -> int:
     files = test_files()
     passed = failed = skipped = 0
+    per_package: dict[str, list[int]] = {}
     broken: list[str] = []
     started = time.monotonic()
     with tempfile.TemporaryDirectory() as folder:
@@ -63,11 +65,18 @@ def main(pytest_args: list[str]) -> int:
             passed += file_passed
             failed += file_failed
             skipped += counts['skipped']
+            package = per_package.setdefault(relative.parts[0], [0, 0, 0])
+            package[0] += file_passed
+            package[1] += file_failed
+            package[2] += counts['skipped']
             if result.returncode not in (0, 5) or file_failed:
                 broken.append(f'{relative} (exit {result.returncode})')
             print(f'[tests] {relative}: {file_passed} passed, {file_failed} failed, '
                   f'{counts["skipped"]} skipped in {time.monotonic() - begin:.1f} s', flush=True)
     print(f'[tests] {len(files)} files in {time.monotonic() - started:.0f} s')
+    for name, (package_passed, package_failed, package_skipped) in sorted(per_package.items()):
+        print(f'[tests] {name}: {package_passed} passed, {package_failed} failed, '
+              f'{package_skipped} skipped')
     for name in broken:
         print(f'[tests] FAILED: {name}')
     print(f'pytest: {passed} passed, {failed} failed, {skipped} skipped')
