@@ -39,6 +39,8 @@ from typing import Any, TextIO
 from forte_bringup.graph import (
     GRAPHS,
     RECORDER,
+    TRANSITION_ATTEMPTS,
+    TRANSITION_RETRY_DELAY,
     GraphSpec,
     NodeSpec,
     parameter_text,
@@ -235,7 +237,7 @@ class Bringup:
         self.extra_parameters = extra_parameters or {}
         #: refused configure / activate requests tolerated per node, 1 s apart (a device
         #: that just enumerated, a servo bus that missed one status packet)
-        self.transition_attempts = 3
+        self.transition_attempts = TRANSITION_ATTEMPTS
         self.log_dir = Path(log_dir)
         self.echo = echo
         self.children: list[_Child] = []
@@ -399,8 +401,9 @@ class Bringup:
                 if refusals >= self.transition_attempts:
                     raise
                 if self.echo is not None:
-                    self.echo.write(f'[forte_bringup] {error}; retrying in 1 s\n')
-                self._spin(1.0)
+                    self.echo.write(f'[forte_bringup] {error}; retrying in '
+                                    f'{TRANSITION_RETRY_DELAY:g} s\n')
+                self._spin(TRANSITION_RETRY_DELAY)
 
     def stop(self, timeout: float = 10.0) -> dict[str, int]:
         """Deactivate lifecycle nodes, then stop every child; returns exit codes by name."""

@@ -127,6 +127,12 @@ CONTROL = NodeSpec(
     argument_remaps=(('arm/cmd_vel', 'arm_cmd_vel_topic'),),
 )
 
+#: Lifecycle transitions a node may refuse before its graph gives up on it, and the pause
+#: before asking again [s] (a device that just enumerated, a servo bus that missed one status
+#: packet): the launch files and forte_bringup retry the same way.
+TRANSITION_ATTEMPTS = 3
+TRANSITION_RETRY_DELAY = 1.0
+
 #: The bag recorder that ``record:=true`` adds to every graph (console script of
 #: forte_bringup, installed in ``lib/forte_bringup/`` like the node executables).
 RECORDER = NodeSpec('forte_bringup', 'forte_record', 'forte_recorder')

@@ -4,7 +4,8 @@ Used by ``launch/*.launch.py`` only; imports ``launch`` and ``launch_ros``, whic
 ROS 2 install but not on a bare machine (there, :mod:`forte_bringup.bringup` starts the
 same graph). Every argument is declared with its description; nodes are created in an
 ``OpaqueFunction`` so that an empty argument leaves the YAML value in force; lifecycle
-nodes are configured on start and activated once inactive (launch_ros lifecycle events).
+nodes are configured on start and activated once inactive (launch_ros lifecycle events),
+and a refused configure or activate is asked for again as forte_bringup does.
 The recorder (``record:=true``) is a launch_ros ``Node`` too: launch_ros finds the
 ``forte_record`` console script in ``lib/forte_bringup/`` as ``ros2 run`` does (colcon does
 not put it on ``PATH``).
@@ -18,6 +19,7 @@ from launch.actions import (
     LogInfo,
     OpaqueFunction,
     RegisterEventHandler,
+    TimerAction,
 )
 from launch.conditions import IfCondition
 from launch.events import matches_action
@@ -28,7 +30,14 @@ from launch_ros.events.lifecycle import ChangeState
 from launch_ros.substitutions import FindPackageShare
 from lifecycle_msgs.msg import Transition
 
-from forte_bringup.graph import GRAPHS, RECORDER, GraphSpec, NodeSpec
+from forte_bringup.graph import (
+    GRAPHS,
+    RECORDER,
+    TRANSITION_ATTEMPTS,
+    TRANSITION_RETRY_DELAY,
+    GraphSpec,
+    NodeSpec,
+)
 
 
 def _node_actions(spec: NodeSpec, graph: GraphSpec, context: LaunchContext,
@@ -49,8 +58,9 @@ def _node_actions(spec: NodeSpec, graph: GraphSpec, context: LaunchContext,
     Returns
     -------
     list of Action
-        A ``Node``; or, for a lifecycle node, the handler that activates it once inactive,
-        the ``LifecycleNode`` and the event that configures it.
+        A ``Node``; or, for a lifecycle node, the handlers that activate it once inactive
+        and retry refused transitions, the ``LifecycleNode`` and the event that configures
+        it.
     """
     arguments = {name: LaunchConfiguration(name).perform(context)
                  for name in {a for _, a in (*spec.argument_parameters, *spec.argument_remaps)}}
@@ -68,18 +78,57 @@ def _node_actions(spec: NodeSpec, graph: GraphSpec, context: LaunchContext,
     node = LifecycleNode(package=spec.package, executable=spec.executable, name=spec.name,
                          namespace='', parameters=parameters, remappings=remappings,
                          output='screen', emulate_tty=True)
-    configure = EmitEvent(event=ChangeState(
-        lifecycle_node_matcher=matches_action(node),
-        transition_id=Transition.TRANSITION_CONFIGURE))
+    configure, activate = (
+        EmitEvent(event=ChangeState(lifecycle_node_matcher=matches_action(node),
+                                    transition_id=transition))
+        for transition in (Transition.TRANSITION_CONFIGURE, Transition.TRANSITION_ACTIVATE))
     activate_when_inactive = RegisterEventHandler(OnStateTransition(
         target_lifecycle_node=node, start_state='configuring', goal_state='inactive',
-        entities=[
-            LogInfo(msg=f'{spec.name} configured, activating'),
-            EmitEvent(event=ChangeState(
-                lifecycle_node_matcher=matches_action(node),
-                transition_id=Transition.TRANSITION_ACTIVATE)),
-        ]))
-    return [activate_when_inactive, node, configure]
+        entities=[LogInfo(msg=f'{spec.name} configured, activating'), activate]))
+    return [activate_when_inactive,
+            _retry_refused(node, spec.name, 'configure', 'unconfigured', configure),
+            _retry_refused(node, spec.name, 'activate', 'inactive', activate),
+            node, configure]
+
+
+def _retry_refused(node: LifecycleNode, name: str, transition: str, fallback_state: str,
+                   request: EmitEvent) -> RegisterEventHandler:
+    """Ask again, after a pause, when ``node`` refuses a transition (as forte_bringup does).
+
+    Parameters
+    ----------
+    node : LifecycleNode
+        The node.
+    name : str
+        Its node name (for the log).
+    transition : str
+        ``configure`` or ``activate``.
+    fallback_state : str
+        The state a refusal returns the node to: ``unconfigured`` after configure
+        (transition event ``configuring`` -> ``unconfigured``), ``inactive`` after activate.
+    request : EmitEvent
+        The ChangeState event that asks for the transition.
+
+    Returns
+    -------
+    RegisterEventHandler
+        Re-emits ``request`` :data:`~forte_bringup.graph.TRANSITION_RETRY_DELAY` s after each
+        refusal, until :data:`~forte_bringup.graph.TRANSITION_ATTEMPTS` refusals.
+    """
+    refusals = 0
+
+    def again(_: LaunchContext) -> list[Action]:
+        nonlocal refusals
+        refusals += 1
+        if refusals >= TRANSITION_ATTEMPTS:
+            return [LogInfo(msg=f'{name} refused {transition} {refusals} times; giving up')]
+        return [LogInfo(msg=f'{name} refused {transition}; asking again in '
+                            f'{TRANSITION_RETRY_DELAY:g} s'),
+                TimerAction(period=TRANSITION_RETRY_DELAY, actions=[request])]
+
+    return RegisterEventHandler(OnStateTransition(
+        target_lifecycle_node=node, start_state=transition[:-1] + 'ing',
+        goal_state=fallback_state, entities=[OpaqueFunction(function=again)]))
 
 
 def _recorder_action(context: LaunchContext) -> Node:
