@@ -5,6 +5,8 @@ does), then watch their topics and drive them from this process over DDS: the ha
 graph against an emulated sensor and simulated Dynamixel servos on pseudo-terminals
 (lifecycle nodes configured and activated through their change_state services), the
 simulation graph through a Grasp goal, and the ``forte_bringup`` command stopped by SIGINT.
+The probe node, the bag and the emulated devices come from ``graph_probe.py``, shared with
+the launch tests (``test_launch_graphs.py``).
 """
 from __future__ import annotations
 
@@ -13,16 +15,17 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
 import pytest
-import rclpy
-from rclpy.action import ActionClient
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from graph_probe import (
+    emulated_devices,
+    force_model_file,
+    wait_for,
+    watching,
+    write_quiet_bag,
+)
 
 from forte_bringup.bringup import (
     Bringup,
@@ -117,78 +120,16 @@ def test_executables_resolve_like_ros2_run():
 
 
 # --- live graphs ---------------------------------------------------------------------------
-class Watcher(Node):
-    """Counts messages on the topics a graph should produce."""
-
-    def __init__(self) -> None:
-        super().__init__('bringup_watcher')
-        from sensor_msgs.msg import JointState
-
-        from forte_msgs.msg import GraspState, TactileFrames, TactileState
-
-        self.counts = {'tactile/frames': 0, 'tactile/state': 0, 'joint_states': 0,
-                       'grasp/state': 0, 'tared': 0}
-        self.last_grasp_state = None
-        best_effort = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
-        self.create_subscription(TactileFrames, 'tactile/frames',
-                                 lambda m: self._count('tactile/frames'), best_effort)
-        self.create_subscription(TactileState, 'tactile/state', self._on_state,
-                                 QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE))
-        self.create_subscription(JointState, 'joint_states',
-                                 lambda m: self._count('joint_states'),
-                                 QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
-        self.create_subscription(GraspState, 'grasp/state', self._on_grasp_state,
-                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                                            durability=DurabilityPolicy.TRANSIENT_LOCAL))
-
-    def _on_state(self, message) -> None:
-        self.counts['tactile/state'] += 1
-        self.counts['tared'] += int(message.tared and message.data_valid)
-
-    def _count(self, topic: str) -> None:
-        self.counts[topic] += 1
-
-    def _on_grasp_state(self, message) -> None:
-        self.counts['grasp/state'] += 1
-        self.last_grasp_state = message
-
-
 @pytest.fixture
 def watcher():
-    rclpy.init()
-    executor = SingleThreadedExecutor()
-    node = Watcher()
-    executor.add_node(node)
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
-    yield node
-    executor.shutdown()
-    node.destroy_node()
-    rclpy.try_shutdown()
-    thread.join(timeout=5)
-
-
-def wait_for(condition, timeout: float) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(0.05)
-    return condition()
+    with watching() as node:
+        yield node
 
 
 @pytest.mark.slow
 def test_hardware_graph_on_emulated_devices(watcher, tmp_path):
     need_graph('hardware')
-    sensor_link, servo_link = tmp_path / 'forte_sensor', tmp_path / 'forte_gripper'
-    devices = [
-        subprocess.Popen([sys.executable, '-m', 'forte_driver.emulated_sensor',
-                          '--link', str(sensor_link)], stdout=subprocess.PIPE, text=True),
-        subprocess.Popen([sys.executable, '-m', 'forte_driver.simulated_servo',
-                          '--link', str(servo_link)], stdout=subprocess.PIPE, text=True),
-    ]
-    try:
-        assert wait_for(lambda: sensor_link.exists() and servo_link.exists(), 20.0)
+    with emulated_devices(tmp_path) as (sensor_link, servo_link):
         bringup = Bringup('hardware', {'sensor_port': str(sensor_link),
                                        'gripper_port': str(servo_link)},
                           log_dir=tmp_path / 'logs', echo=None)
@@ -206,47 +147,32 @@ def test_hardware_graph_on_emulated_devices(watcher, tmp_path):
         assert set(codes) == {'serial_sensor', 'gripper_driver', 'perception',
                               'grasp_controller'}
         assert all(code is not None for code in codes.values())
-    finally:
-        for device in devices:
-            device.send_signal(signal.SIGINT)
-        for device in devices:
-            try:
-                device.wait(10)
-            except subprocess.TimeoutExpired:
-                device.kill()
 
 
 @pytest.mark.slow
 def test_sim_graph_serves_a_grasp(watcher, tmp_path):
     need_graph('sim')
-    from forte_bringup.closed_loop import default_force_model
     from forte_msgs.action import Grasp
 
-    model = tmp_path / 'force_model.npz'
-    default_force_model().save(model)  # the simulated-rig model (cached across runs)
-    # half real time, as the demo: the controller's input queue must not lag its 0.5 s
-    # freshness bound when the machine is busy (a test session, other jobs)
-    bringup = Bringup('sim', {'object': 'soda_can', 'force_model': str(model)},
-                      extra_parameters={'sim': {'real_time_factor': 0.5}},
+    model = force_model_file(tmp_path / 'force_model.npz')
+    # half real time (sim.yaml's default, given here as the argument): the controller's
+    # input queue must not lag its 0.5 s freshness bound when the machine is busy
+    bringup = Bringup('sim', {'object': 'soda_can', 'force_model': str(model),
+                              'real_time_factor': '0.5'},
                       log_dir=tmp_path / 'logs', echo=None)
+    assert bringup.commands()['sim'][-2:] == ['-p', 'real_time_factor:=0.5']
     bringup.start(timeout=60.0)
     try:
         # the controller refuses a goal before perception is tared and joint states flow
         assert wait_for(lambda: watcher.counts['tared'] > 20, 30.0), watcher.counts
         assert wait_for(lambda: watcher.counts['joint_states'] > 10, 30.0), watcher.counts
         assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, 30.0)
+        assert watcher.parameter('sim', 'real_time_factor') == 0.5
         time.sleep(0.5)
-        client = ActionClient(watcher, Grasp, 'grasp')
-        assert client.wait_for_server(timeout_sec=30.0)
         goal = Grasp.Goal(controller=Grasp.Goal.FORTE, lift_distance=0.01, timeout=60.0)
-        feedback = []
-        future = client.send_goal_async(goal, feedback_callback=feedback.append)
-        assert wait_for(future.done, 30.0)
-        handle = future.result()
-        assert handle.accepted
-        result_future = handle.get_result_async()
-        assert wait_for(result_future.done, 120.0), watcher.last_grasp_state
-        result = result_future.result().result
+        accepted, result, feedback = watcher.grasp(goal, timeout=120.0)
+        assert accepted
+        assert result is not None, watcher.last_grasp_state
         assert result.outcome == Grasp.Result.LIFTED, (result.outcome, result.message)
         assert feedback, 'no action feedback'
         assert result.lift_height == pytest.approx(0.01, abs=0.002)
@@ -290,27 +216,7 @@ def test_forte_bringup_command_stops_cleanly_on_sigint(tmp_path):
 @pytest.mark.slow
 def test_replay_graph_drives_perception_from_a_bag(watcher, tmp_path):
     need_graph('replay')
-    import numpy as np
-    from rclpy.serialization import serialize_message
-
-    from forte_bringup.bags import BagWriter, TopicSpec
-    from forte_msgs.msg import TactileFrames
-
-    bag = tmp_path / 'bag'
-    rng = np.random.default_rng(0)
-    with BagWriter(bag) as writer:
-        writer.add_topic(TopicSpec('tactile/frames', 'forte_msgs/msg/TactileFrames'))
-        for index in range(600):  # 6 s of quiet sensor at 2 kHz
-            message = TactileFrames(sample_count=20, sample_period=0.0005,
-                                    first_sequence=20 * index)
-            message.header.stamp.sec = 1000 + index // 100
-            message.header.stamp.nanosec = (index % 100) * 10_000_000
-            message.header.frame_id = 'forte_base_link'
-            message.channel_names = ['left_distal', 'left_middle', 'left_root',
-                                     'right_distal', 'right_middle', 'right_root']
-            message.data = (0.05 + rng.normal(0.0, 0.001, 120)).tolist()
-            writer.write('tactile/frames', 1000 * 10**9 + index * 10**7,
-                         serialize_message(message))
+    bag = write_quiet_bag(tmp_path / 'bag')  # 6 s of quiet sensor at 2 kHz
     bringup = Bringup('replay', {'bag': str(bag), 'rate': '2'}, log_dir=tmp_path / 'logs',
                       echo=None)
     bringup.start(timeout=60.0)

@@ -1,0 +1,344 @@
+"""Probes of a running FORTE graph, shared by the bringup and launch tests (not a test module).
+
+``test_bringup.py`` starts the graphs with :class:`forte_bringup.bringup.Bringup`,
+``test_launch_graphs.py`` with ``ros2 launch``'s launch files under launch_pytest; both
+watch them from the test process with the same probe: a :class:`Watcher` node in an rclpy
+context of its own, spun in a background thread (:func:`watching`), that counts the
+graph's messages, reads lifecycle states and parameters over the nodes' services and sends
+Grasp goals. Also here: a bag of a quiet sensor for the replay graph
+(:func:`write_quiet_bag`), the emulated sensor and simulated servos on pseudo-terminals
+for the hardware graph (:func:`emulated_devices`) and the simulated-rig force model
+(:func:`force_model_file`).
+
+Imported as ``from graph_probe import ...``: in pytest's default (prepend) import mode the
+folder of the test files is on ``sys.path``; the basename is unique in the repository.
+"""
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import rclpy
+from rclpy.action import ActionClient
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+
+#: Topics :class:`Watcher` counts (``tared``: tactile states that are tared and valid).
+COUNTED = ('tactile/frames', 'tactile/state', 'joint_states', 'grasp/state', 'tared')
+
+
+def wait_for(condition: Callable[[], bool], timeout: float, interval: float = 0.05) -> bool:
+    """Poll ``condition`` until it is true or ``timeout`` s have passed.
+
+    Parameters
+    ----------
+    condition : callable
+        Returns a truth value; called from this thread.
+    timeout : float
+        Longest wait [s].
+    interval : float
+        Pause between calls [s].
+
+    Returns
+    -------
+    bool
+        The last value of the condition (true if it became true in time).
+    """
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(interval)
+    return bool(condition())
+
+
+class Watcher(Node):
+    """Counts the graph's messages and talks to its nodes' services and actions.
+
+    Spun by an executor in another thread (:func:`watching`); the query methods are called
+    from the test's thread and wait for their futures.
+
+    Parameters
+    ----------
+    context : rclpy.context.Context
+        The (initialised) context of the node.
+    """
+
+    def __init__(self, context: Context) -> None:
+        super().__init__('graph_probe', context=context)
+        from sensor_msgs.msg import JointState
+
+        from forte_msgs.msg import GraspState, TactileFrames, TactileState
+
+        self.counts = dict.fromkeys(COUNTED, 0)
+        self.last_grasp_state = None
+        self.joint_positions: list[float] = []
+        best_effort = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
+        self.create_subscription(TactileFrames, 'tactile/frames',
+                                 lambda _: self._count('tactile/frames'), best_effort)
+        self.create_subscription(TactileState, 'tactile/state', self._on_state,
+                                 QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE))
+        self.create_subscription(JointState, 'joint_states', self._on_joint_state,
+                                 QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
+        self.create_subscription(GraspState, 'grasp/state', self._on_grasp_state,
+                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                                            durability=DurabilityPolicy.TRANSIENT_LOCAL))
+
+    # -- counting ---------------------------------------------------------------------------
+    def _count(self, topic: str) -> None:
+        self.counts[topic] += 1
+
+    def _on_state(self, message: Any) -> None:
+        self.counts['tactile/state'] += 1
+        self.counts['tared'] += int(message.tared and message.data_valid)
+
+    def _on_joint_state(self, message: Any) -> None:
+        self.counts['joint_states'] += 1
+        self.joint_positions = list(message.position)
+
+    def _on_grasp_state(self, message: Any) -> None:
+        self.counts['grasp/state'] += 1
+        self.last_grasp_state = message
+
+    # -- services ---------------------------------------------------------------------------
+    def call(self, service_type: Any, name: str, request: Any, timeout: float) -> Any:
+        """Call a service and wait for the answer.
+
+        Parameters
+        ----------
+        service_type : type
+            Service class, e.g. ``lifecycle_msgs.srv.GetState``.
+        name : str
+            Service name.
+        request : object
+            The request.
+        timeout : float
+            Longest wait for the service and for its answer [s].
+
+        Returns
+        -------
+        object or None
+            The response; None if the service did not appear or answer in time.
+        """
+        client = self.create_client(service_type, name)
+        try:
+            if not client.wait_for_service(timeout_sec=timeout):
+                return None
+            future = client.call_async(request)
+            if not wait_for(future.done, timeout):
+                return None
+            return future.result()
+        finally:
+            self.destroy_client(client)
+
+    def lifecycle_state(self, node: str, timeout: float = 10.0) -> str | None:
+        """Current lifecycle state label of ``node`` from ``/<node>/get_state``.
+
+        Returns
+        -------
+        str or None
+            ``unconfigured``, ``inactive``, ``active``, ``configuring``, ...; None if the
+            service did not answer.
+        """
+        from lifecycle_msgs.srv import GetState
+
+        response = self.call(GetState, f'/{node}/get_state', GetState.Request(), timeout)
+        return None if response is None else response.current_state.label
+
+    def wait_for_lifecycle_state(self, node: str, label: str, timeout: float) -> str | None:
+        """Poll ``/<node>/get_state`` until it reports ``label``.
+
+        Used to let every transition a launch requested finish (the launch's ChangeState
+        calls are answered once the node is in the final state) before the launch is shut
+        down.
+
+        Returns
+        -------
+        str or None
+            The last state seen (``label`` if it was reached in time).
+        """
+        deadline = time.monotonic() + timeout
+        state = None
+        while time.monotonic() < deadline:
+            state = self.lifecycle_state(node, max(1.0, deadline - time.monotonic()))
+            if state == label:
+                return state
+            time.sleep(0.2)
+        return state
+
+    def parameter(self, node: str, name: str, timeout: float = 10.0) -> Any:
+        """Value of parameter ``name`` of ``node`` (``/<node>/get_parameters``).
+
+        Returns
+        -------
+        object or None
+            The value as a Python bool / int / float / str (None: not set or no answer).
+        """
+        from rcl_interfaces.srv import GetParameters
+        from rclpy.parameter import parameter_value_to_python
+
+        response = self.call(GetParameters, f'/{node}/get_parameters',
+                             GetParameters.Request(names=[name]), timeout)
+        if response is None or not response.values:
+            return None
+        return parameter_value_to_python(response.values[0])
+
+    # -- Grasp action -----------------------------------------------------------------------
+    def grasp(self, goal: Any, timeout: float) -> tuple[bool, Any, list]:
+        """Send a ``grasp`` goal (forte_msgs/action/Grasp) and wait for its result.
+
+        Parameters
+        ----------
+        goal : Grasp.Goal
+            The goal.
+        timeout : float
+            Longest wait for the server, the acceptance and the result, each [s].
+
+        Returns
+        -------
+        accepted : bool
+            Whether the server accepted the goal.
+        result : Grasp.Result or None
+            The result (None if rejected or not answered in time).
+        feedback : list
+            Feedback messages received.
+        """
+        from forte_msgs.action import Grasp
+
+        client = ActionClient(self, Grasp, 'grasp')
+        try:
+            assert client.wait_for_server(timeout_sec=timeout), 'no grasp action server'
+            feedback: list = []
+            future = client.send_goal_async(goal, feedback_callback=feedback.append)
+            assert wait_for(future.done, timeout), 'goal not answered'
+            handle = future.result()
+            if not handle.accepted:
+                return False, None, feedback
+            result_future = handle.get_result_async()
+            if not wait_for(result_future.done, timeout):
+                return True, None, feedback
+            return True, result_future.result().result, feedback
+        finally:
+            client.destroy()
+
+
+@contextmanager
+def watching() -> Iterator[Watcher]:
+    """A :class:`Watcher` in an rclpy context of its own, spun in a background thread.
+
+    The context installs no signal handlers: the test process's SIGINT handling (pytest's,
+    a launch service's) stays as it is.
+    """
+    context = Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    executor = SingleThreadedExecutor(context=context)
+    node = Watcher(context)
+    executor.add_node(node)
+    thread = threading.Thread(target=executor.spin, daemon=True)
+    thread.start()
+    try:
+        yield node
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        thread.join(timeout=5)
+
+
+def write_quiet_bag(path: Path, messages: int = 600, first_second: int = 1000,
+                    seed: int = 0) -> Path:
+    """Write a bag of a quiet sensor (``tactile/frames`` at 2 kHz) with the project's writer.
+
+    Parameters
+    ----------
+    path : Path
+        Bag folder to create.
+    messages : int
+        TactileFrames messages of 20 samples (100 per second of recording).
+    first_second : int
+        Header stamp and log time of the first message [s].
+    seed : int
+        Seed of the sensor noise.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    import numpy as np
+    from rclpy.serialization import serialize_message
+
+    from forte_bringup.bags import BagWriter, TopicSpec
+    from forte_msgs.msg import TactileFrames
+
+    rng = np.random.default_rng(seed)
+    with BagWriter(path) as writer:
+        writer.add_topic(TopicSpec('tactile/frames', 'forte_msgs/msg/TactileFrames'))
+        for index in range(messages):
+            message = TactileFrames(sample_count=20, sample_period=0.0005,
+                                    first_sequence=20 * index)
+            message.header.stamp.sec = first_second + index // 100
+            message.header.stamp.nanosec = (index % 100) * 10_000_000
+            message.header.frame_id = 'forte_base_link'
+            message.channel_names = ['left_distal', 'left_middle', 'left_root',
+                                     'right_distal', 'right_middle', 'right_root']
+            message.data = (0.05 + rng.normal(0.0, 0.001, 120)).tolist()
+            writer.write('tactile/frames', first_second * 10**9 + index * 10**7,
+                         serialize_message(message))
+    return path
+
+
+@contextmanager
+def emulated_devices(folder: Path, timeout: float = 20.0) -> Iterator[tuple[Path, Path]]:
+    """The emulated tactile sensor and the simulated Dynamixel pair on pseudo-terminals.
+
+    Runs ``python -m forte_driver.emulated_sensor --link <folder>/forte_sensor`` and
+    ``python -m forte_driver.simulated_servo --link <folder>/forte_gripper``; stops both
+    with SIGINT (SIGKILL after 10 s) on exit.
+
+    Yields
+    ------
+    tuple of Path
+        The sensor's and the gripper's device links (ports of the hardware graph).
+    """
+    sensor_link, servo_link = folder / 'forte_sensor', folder / 'forte_gripper'
+    devices = [
+        subprocess.Popen([sys.executable, '-m', 'forte_driver.emulated_sensor',
+                          '--link', str(sensor_link)],
+                         stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT),
+        subprocess.Popen([sys.executable, '-m', 'forte_driver.simulated_servo',
+                          '--link', str(servo_link)],
+                         stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT),
+    ]
+    try:
+        assert wait_for(lambda: sensor_link.exists() and servo_link.exists(), timeout), (
+            'the emulated devices did not create their links')
+        yield sensor_link, servo_link
+    finally:
+        for device in devices:
+            if device.poll() is None:
+                device.send_signal(signal.SIGINT)
+        for device in devices:
+            try:
+                device.wait(10)
+            except subprocess.TimeoutExpired:
+                device.kill()
+                device.wait(5)
+
+
+def force_model_file(path: Path) -> Path:
+    """Save the simulated-rig force model (cached across runs) to ``path`` and return it."""
+    from forte_bringup.closed_loop import default_force_model
+
+    default_force_model().save(path)
+    return path
