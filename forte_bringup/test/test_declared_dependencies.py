@@ -39,6 +39,7 @@ ROSDEP_KEYS: dict[str, str] = {
     **{name: name for name in (
         'control_msgs', 'diagnostic_msgs', 'dynamixel_sdk', 'geometry_msgs', 'launch',
         'launch_pytest', 'launch_ros', 'lifecycle_msgs', 'rcl_interfaces', 'rclpy',
+        'ros2action', 'ros2cli', 'ros2launch', 'ros2lifecycle', 'ros2topic',
         'rosgraph_msgs', 'sensor_msgs', 'std_msgs', 'std_srvs', *PACKAGES)},
 }
 
