@@ -80,7 +80,8 @@ fi
 
 # 4. forte_msgs ---------------------------------------------------------------------------
 msgs_hash=$(hash_of "$root"/forte_msgs/CMakeLists.txt "$root"/forte_msgs/package.xml \
-  "$root"/forte_msgs/msg/* "$root"/forte_msgs/srv/* "$root"/forte_msgs/action/*; echo "$use_system_ros")
+  "$root"/forte_msgs/msg/* "$root"/forte_msgs/srv/* "$root"/forte_msgs/action/* \
+  "$root"/forte_msgs/forte_ros/*.py; echo "$use_system_ros")
 if ! stamp_ok msgs "$msgs_hash" || [ ! -d "$install/share/forte_msgs" ]; then
   say "building forte_msgs (about 30 s)"
   # Rebuild in place: install/ stays importable for processes already using it
