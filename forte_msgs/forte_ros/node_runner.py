@@ -18,7 +18,9 @@ nodes never run ``on_shutdown``, and SIGTERM ends the process without any clean-
    :class:`~forte_ros.lifecycle.ForteLifecycleNode` takes the ``shutdown`` transition so
    ``on_shutdown`` releases devices and leaves servos as their parameters say), else a
    plain ``LifecycleNode`` is shut down through its state machine;
-4. the executor is shut down, the nodes destroyed, the context shut down, the previous
+4. the executor runs for ``flush_time`` more (0.1 s) so that what finalising queued on it
+   goes out, e.g. the result of an action goal ended by ``prepare_shutdown``;
+5. the executor is shut down, the nodes destroyed, the context shut down, the previous
    signal handlers restored.
 
 A signal-requested stop exits with code 0. Threads that may still race with the end of the
@@ -28,6 +30,7 @@ from __future__ import annotations
 
 import signal
 import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from types import FrameType
@@ -108,6 +111,8 @@ class NodeRunner:
     drain_timeout : float
         How long callbacks still running in other executor threads may take to finish
         after the loop ended [s].
+    flush_time : float
+        How long the executor keeps running after the nodes were finalised [s].
     context : rclpy.context.Context, optional
         Context to initialise; default rclpy's default context.
 
@@ -121,7 +126,7 @@ class NodeRunner:
     def __init__(self, args: list[str] | None = None, *,
                  executor_factory: ExecutorFactory | None = None,
                  spin_period: float = 0.1, drain_timeout: float = 2.0,
-                 context: Context | None = None) -> None:
+                 flush_time: float = 0.1, context: Context | None = None) -> None:
         if not 0.0 < spin_period <= 1.0:
             raise ValueError(f'spin_period must be in (0, 1] s, got {spin_period}')
         self._args = args
@@ -129,6 +134,7 @@ class NodeRunner:
             lambda context: SingleThreadedExecutor(context=context))
         self.spin_period = spin_period
         self.drain_timeout = drain_timeout
+        self.flush_time = flush_time
         self.context = context if context is not None else rclpy.get_default_context()
         self.executor: Executor | None = None
         self.nodes: list[Node] = []
@@ -213,6 +219,7 @@ class NodeRunner:
                 self._drain_callbacks()
                 for node in reversed(self.nodes):
                     self._finalise(node)
+                self._flush()
             self._shutdown_executor()
             for node in reversed(self.nodes):
                 try:
@@ -230,6 +237,15 @@ class NodeRunner:
         tracker = getattr(self.executor, '_work_tracker', None)
         if tracker is not None and not tracker.wait(self.drain_timeout):
             self.logger.warning(f'callbacks still running after {self.drain_timeout} s')
+
+    def _flush(self) -> None:
+        """Run what finalising queued (e.g. sending a goal result) for ``flush_time``."""
+        deadline = time.monotonic() + self.flush_time
+        while time.monotonic() < deadline and self.context.ok():
+            try:
+                self.executor.spin_once(timeout_sec=min(0.02, self.flush_time))
+            except Exception as error:  # noqa: BLE001 - a stopping process must not die here
+                self.logger.error(f'callback failed while stopping: {error}')
 
     def _finalise(self, node: Node) -> None:
         hook = getattr(node, 'prepare_shutdown', None)
