@@ -30,17 +30,26 @@ def frames(index: int) -> TactileFrames:
     return message
 
 
-@pytest.fixture(scope='module')
-def bag(tmp_path_factory) -> Path:
-    """20 s of frames at the recorded timing."""
-    path = tmp_path_factory.mktemp('bags') / 'frames'
+def write_bag(path: Path, count: int) -> Path:
     with BagWriter(path) as writer:
         writer.add_topic(TopicSpec('tactile/frames', 'forte_msgs/msg/TactileFrames',
                                    reliable=False, depth=50))
-        for index in range(2000):
+        for index in range(count):
             writer.write('tactile/frames', START_NS + index * PERIOD_NS,
                          serialize_message(frames(index)))
     return path
+
+
+@pytest.fixture(scope='module')
+def bag(tmp_path_factory) -> Path:
+    """20 s of frames at the recorded timing."""
+    return write_bag(tmp_path_factory.mktemp('bags') / 'short', 2000)
+
+
+@pytest.fixture(scope='module')
+def long_bag(tmp_path_factory) -> Path:
+    """5 min of frames: still replaying when the signal comes, even as fast as possible."""
+    return write_bag(tmp_path_factory.mktemp('bags') / 'long', 30000)
 
 
 def stop_cleanly(process: NodeProcess, signum: int) -> None:
@@ -56,12 +65,12 @@ def stop_cleanly(process: NodeProcess, signum: int) -> None:
 @pytest.mark.parametrize('signum, rate', [(signal.SIGINT, 1.0), (signal.SIGTERM, 1.0),
                                           (signal.SIGINT, 0.0)],
                          ids=['SIGINT', 'SIGTERM', 'SIGINT-as-fast-as-possible'])
-def test_bag_replay_node_stops_cleanly_mid_replay(bag, signum, rate):
+def test_bag_replay_node_stops_cleanly_mid_replay(long_bag, signum, rate):
     reliable = rate == 0.0  # as fast as possible: the replay thread publishes flat out
     with Probe('replay_shutdown_probe') as probe:
         probe.count(TactileFrames, 'tactile/frames',
                     RELIABLE if reliable else qos_profile_sensor_data)
-        command = ['bag_replay_node', *ros_args(bag_path=str(bag), rate=rate,
+        command = ['bag_replay_node', *ros_args(bag_path=str(long_bag), rate=rate,
                                                 reliable=reliable, start_delay=0.0)]
         with NodeProcess(command) as process:
             assert wait_until(lambda: probe.counts['tactile/frames'] >= 20, 40.0), \
