@@ -164,8 +164,10 @@ done
 
 
 # 6. the workspace: colcon build --symlink-install, as on a robot ---------------------------
+# (symlinked sources need no rebuild; new files installed by CMake or setup.py do)
 ws_hash=$(hash_of $(for p in "${packages[@]}"; do ls "$root/$p"/{setup.py,setup.cfg,package.xml,CMakeLists.txt} \
-  "$root/$p"/msg/* "$root/$p"/srv/* "$root/$p"/action/* 2>/dev/null; done) "$venv/local_setup.bash")
+  "$root/$p"/msg/* "$root/$p"/srv/* "$root/$p"/action/* "$root/$p"/forte_ros/*.py 2>/dev/null; done) \
+  "$venv/local_setup.bash"; ls "$root"/forte_*/{launch,config}/* 2>/dev/null)
 if ! stamp_ok workspace "$ws_hash" || [ ! -f "$root/install/setup.bash" ]; then
   say "colcon build --symlink-install (${packages[*]}; first run: about a minute)"
   (

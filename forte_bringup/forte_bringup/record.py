@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
-import signal
 import sys
 import time
 from datetime import datetime
@@ -164,36 +163,29 @@ def main(argv: list[str] | None = None) -> int:
     command_line = [sys.argv[0], *(sys.argv[1:] if argv is None else argv)]
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
-    import rclpy
     from rclpy.utilities import remove_ros_args
+
+    from forte_ros import NodeRunner  # imports rclpy: after the environment is settled
 
     # ROS arguments (``--ros-args ... [--]``, as ros2 run / launch_ros add them, e.g.
     # ``-r __node:=forte_recorder``) go to rclpy; the rest must be ours (a typo fails)
     args = parser.parse_args(remove_ros_args(command_line)[1:])
-    rclpy.init(args=command_line)
-    recorder = None
-    stop = {'now': False}
+    started = time.monotonic()
 
-    def request_stop(*_: object) -> None:
-        stop['now'] = True
+    def duration_over() -> bool:
+        return bool(args.duration) and time.monotonic() - started >= args.duration
 
-    signal.signal(signal.SIGTERM, request_stop)
-    signal.signal(signal.SIGINT, request_stop)
-    try:
+    # SIGINT / SIGTERM end the spin; the bag is finished while the context is still valid
+    with NodeRunner(command_line) as runner:
         recorder = BagRecorder(args.output or default_output(), args.topics, args.all)
-        started = time.monotonic()
+        runner.add_node(recorder.node)
         print(f'[forte_record] recording to {recorder.writer.path} '
               f'(ROS_DOMAIN_ID={os.environ.get("ROS_DOMAIN_ID", "0")})', flush=True)
-        while rclpy.ok() and not stop['now']:
-            rclpy.spin_once(recorder.node, timeout_sec=0.1)
-            if args.duration and time.monotonic() - started >= args.duration:
-                break
-    finally:
-        if recorder is not None:
+        try:
+            runner.spin(until=duration_over)
+        finally:
             recorder.close()
             print('[forte_record] bag closed\n' + recorder.summary(), flush=True)
-            recorder.node.destroy_node()
-        rclpy.try_shutdown()
     return 0
 
 

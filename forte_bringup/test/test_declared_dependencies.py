@@ -41,7 +41,11 @@ ROSDEP_KEYS: dict[str, str] = {
         'launch_pytest', 'launch_ros', 'lifecycle_msgs', 'rcl_interfaces', 'rclpy',
         'ros2action', 'ros2cli', 'ros2launch', 'ros2lifecycle', 'ros2topic',
         'rosgraph_msgs', 'sensor_msgs', 'std_msgs', 'std_srvs', *PACKAGES)},
+    'forte_ros': 'forte_msgs',  # the node runner, installed by forte_msgs
 }
+
+#: Python modules a package installs besides the one named after it.
+EXTRA_MODULES: dict[str, tuple[str, ...]] = {'forte_msgs': ('forte_ros',)}
 
 #: Imported module -> pip distribution, for libraries that have no rosdep key (not
 #: declared in package.xml; README's robot section installs them with pip).
@@ -112,16 +116,18 @@ def third_party_imports(package: str) -> dict[str, dict[str, set[str]]]:
     Returns
     -------
     dict
-        ``{'runtime': {module: files}, 'test': {module: files}}``; runtime = module folder
+        ``{'runtime': {module: files}, 'test': {module: files}}``; runtime = module folder(s)
         and ``launch/``, test = ``test/`` (modules runtime code imports are left out of it).
     """
     folder = ROOT / package
-    scopes = {'runtime': [*(folder / package).rglob('*.py'), *(folder / 'launch').rglob('*.py')],
+    modules = (package, *EXTRA_MODULES.get(package, ()))
+    scopes = {'runtime': [*(path for module in modules for path in (folder / module).rglob('*.py')),
+                          *(folder / 'launch').rglob('*.py')],
               'test': list((folder / 'test').rglob('*.py'))}
     # test helpers imported by their own name (perception_signals), and test subfolders
     local = {part.removesuffix('.py') for path in scopes['test']
              for part in path.relative_to(folder / 'test').parts} - set(PACKAGES)
-    ignored = sys.stdlib_module_names | local | {package}
+    ignored = sys.stdlib_module_names | local | set(modules)
     found: dict[str, dict[str, set[str]]] = {'runtime': defaultdict(set), 'test': defaultdict(set)}
     for scope, paths in scopes.items():
         for path in paths:

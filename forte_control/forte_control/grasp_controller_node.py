@@ -26,7 +26,6 @@ import time
 from collections import deque
 from dataclasses import fields, replace
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped
 from rcl_interfaces.msg import (
@@ -37,7 +36,7 @@ from rcl_interfaces.msg import (
 )
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
@@ -67,6 +66,7 @@ from forte_msgs.action import Grasp
 from forte_msgs.msg import GraspState as GraspStateMsg
 from forte_msgs.msg import ServoCommand, TactileState
 from forte_msgs.srv import ResetFault
+from forte_ros import run_node
 
 try:  # standard gripper action for MoveIt, only where control_msgs is installed
     from control_msgs.action import GripperCommand
@@ -196,6 +196,9 @@ class GraspControllerNode(Node):
         self._last_state_published: tuple | None = None
         self._was_active = False
         self._done_event = threading.Event()
+        self._stopping = threading.Event()
+        self._execute_idle = threading.Event()
+        self._execute_idle.set()
         self._goal_start = 0.0
         self._active_goal = None
         self.counters = {'joint_states_without_joints': 0, 'tactile_invalid': 0,
@@ -492,7 +495,29 @@ class GraspControllerNode(Node):
                 self._publish_arm(0.0)
         return CancelResponse.ACCEPT
 
+    def prepare_shutdown(self, timeout: float = 3.0) -> None:
+        """Stop a running grasp (arm stopped, grip held) and end its goal (node runner).
+
+        Called while the context is still valid, before the node is destroyed: the execute
+        callback aborts its goal and returns, so no executor thread outlives the node.
+        """
+        self._stopping.set()
+        with self._lock:
+            if self._active_goal is not None:
+                self._apply(self._machine.cancel(self._now()))
+                self._publish_arm(0.0)
+            self._done_event.set()
+        if not self._execute_idle.wait(timeout):
+            self.get_logger().warning(f'grasp goal still running after {timeout} s')
+
     def _execute(self, goal_handle):
+        self._execute_idle.clear()
+        try:
+            return self._execute_goal(goal_handle)
+        finally:
+            self._execute_idle.set()
+
+    def _execute_goal(self, goal_handle):
         goal = self.goal_from_msg(goal_handle.request)
         with self._lock:
             self._done_event.clear()
@@ -508,7 +533,7 @@ class GraspControllerNode(Node):
         self.get_logger().info(f'grasp started ({Controller(goal.controller).name})')
         feedback = Grasp.Feedback()
         while not self._done_event.wait(self._feedback_period):
-            if not rclpy.ok():
+            if self._stopping.is_set() or not self.context.ok():
                 break
             with self._lock:
                 out = self._last_outputs
@@ -531,7 +556,7 @@ class GraspControllerNode(Node):
             self._active_goal = None
             duration = time.monotonic() - self._goal_start
         outcome = Outcome(int(out.outcome)) if out is not None else Outcome.FAULT
-        if outcome == Outcome.CANCELED:
+        if outcome == Outcome.CANCELED and not self._stopping.is_set():
             # the server marks the goal CANCELING right after _on_cancel returns
             deadline = time.monotonic() + 2.0
             while not goal_handle.is_cancel_requested and time.monotonic() < deadline:
@@ -605,25 +630,11 @@ class GraspControllerNode(Node):
         return result
 
 
-def main(args=None) -> None:
-    """Run the grasp controller node in a multi-threaded executor."""
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = GraspControllerNode()
-        executor = MultiThreadedExecutor(num_threads=3)
-        executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:  # a signal shut the context down while the executor was waiting
-        if rclpy.ok():
-            raise
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+def main(args: list[str] | None = None) -> int:
+    """Run the grasp controller node in a multi-threaded executor until SIGINT/SIGTERM."""
+    return run_node(GraspControllerNode, args, executor_factory=lambda context:
+                    MultiThreadedExecutor(num_threads=3, context=context))
 
 
 if __name__ == '__main__':
-    main()
+    raise SystemExit(main())

@@ -21,7 +21,6 @@ import threading
 import time
 from typing import Any
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import (
     FloatingPointRange,
@@ -40,6 +39,7 @@ from rclpy.qos import (
 from rclpy.serialization import deserialize_message
 
 from forte_driver.mcap_source import BagError, BagMessage, BagReadReport, bag_files, read_bag
+from forte_ros import publish_quietly, run_node
 
 #: History depth of the reliable replay publishers [messages] (about 100 s of frames).
 RELIABLE_DEPTH = 10000
@@ -176,6 +176,8 @@ class BagReplayNode(Node):
         self.report = BagReadReport()
         self.published: dict[str, int] = {}
         self.undecodable = 0
+        #: publishes dropped because the process was stopping (``late_publishes``)
+        self.late = {'late_publishes': 0}
         self.done = threading.Event()
         self._stop = threading.Event()
         self._replay_publishers: dict[str, Any] = {}
@@ -258,6 +260,8 @@ class BagReplayNode(Node):
                     self.undecodable += 1
                     continue
                 except Exception as error:  # corrupt CDR payload inside an intact record
+                    if self._stopping():
+                        return
                     self.undecodable += 1
                     self.get_logger().error(
                         f'{message.topic}: message at log time {message.log_time} ns does '
@@ -268,7 +272,8 @@ class BagReplayNode(Node):
                 delay = clock.due(message.log_time, time.monotonic()) - time.monotonic()
                 if delay > 0.0 and self._stop.wait(delay):
                     return
-                publisher.publish(msg)
+                if not publish_quietly(publisher, msg, self.context, self.late):
+                    return  # the process is stopping
                 self.published[message.topic] = self.published.get(message.topic, 0) + 1
             self._log_new_errors()
             total = sum(self.published.values())
@@ -283,9 +288,16 @@ class BagReplayNode(Node):
         except BagError as error:
             self.get_logger().error(f'cannot replay {self.bag_path}: {error}')
             self.report.errors.append(str(error))
+        except RuntimeError:  # RCLError / InvalidHandle: the node or context ended under us
+            if not self._stopping():
+                raise
+            self.late['late_publishes'] += 1
         finally:
             self.done.set()
             self._publish_diagnostics()
+
+    def _stopping(self) -> bool:
+        return self._stop.is_set() or not self.context.ok()
 
     def _publish_diagnostics(self) -> None:
         status = DiagnosticStatus()
@@ -306,7 +318,7 @@ class BagReplayNode(Node):
         array = DiagnosticArray()
         array.header.stamp = self.get_clock().now().to_msg()
         array.status = [status]
-        self._diagnostics.publish(array)
+        publish_quietly(self._diagnostics, array, self.context, self.late)
 
     def stop(self) -> None:
         """Stop the replay thread (idempotent) and wait for it."""
@@ -314,32 +326,27 @@ class BagReplayNode(Node):
         if self._thread.is_alive() and threading.current_thread() is not self._thread:
             self._thread.join(timeout=5.0)
 
+    def prepare_shutdown(self) -> None:
+        """Stop and join the replay thread while the context is valid (node runner)."""
+        self.stop()
+
     def destroy_node(self) -> None:
         self.stop()
         super().destroy_node()
 
 
-def main(args: list[str] | None = None) -> None:
-    """Entry point ``bag_replay_node``."""
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = BagReplayNode()
-        while rclpy.ok():
-            rclpy.spin_once(node, timeout_sec=0.2)
-            if node.exit_when_done and node.done.is_set():
-                break
-    except BagError as error:
-        if node is None:
-            rclpy.logging.get_logger('bag_replay').fatal(str(error))
-            raise SystemExit(2) from error
-    except KeyboardInterrupt:
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+def main(args: list[str] | None = None) -> int:
+    """Entry point ``bag_replay_node``: replay until done (``exit_when_done``) or a signal.
+
+    Returns
+    -------
+    int
+        0, or 2 if the bag cannot be opened (one fatal log line, no traceback).
+    """
+    return run_node(
+        BagReplayNode, args, fatal_errors=(BagError,), name='bag_replay',
+        until=lambda node: node.exit_when_done and node.done.is_set())
 
 
 if __name__ == '__main__':
-    main()
+    raise SystemExit(main())

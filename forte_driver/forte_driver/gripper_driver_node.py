@@ -24,7 +24,6 @@ import math
 import time
 from typing import Any
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import (
     FloatingPointRange,
@@ -33,7 +32,7 @@ from rcl_interfaces.msg import (
     SetParametersResult,
 )
 from rclpy.duration import Duration
-from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.lifecycle import LifecycleState, TransitionCallbackReturn
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
@@ -47,6 +46,7 @@ from forte_driver.dynamixel.gripper import (
     GripperLimits,
 )
 from forte_msgs.msg import ServoCommand
+from forte_ros import ForteLifecycleNode, run_node
 
 LEFT_JOINT = 'forte_left_finger_joint'
 RIGHT_JOINT = 'forte_right_finger_joint'
@@ -77,7 +77,7 @@ def _int_range(low: int, high: int, step: int = 1) -> list[IntegerRange]:
     return [IntegerRange(from_value=low, to_value=high, step=step)]
 
 
-class GripperDriverNode(LifecycleNode):
+class GripperDriverNode(ForteLifecycleNode):
     """The FORTE gripper driver (lifecycle node ``gripper_driver``)."""
 
     def __init__(self, **kwargs: Any) -> None:
@@ -286,6 +286,7 @@ class GripperDriverNode(LifecycleNode):
             self._state_timer = None
         self._release_ros_entities()
         self.stop_hardware('shutdown')
+        self.get_logger().info(f'shut down from {state.label}: port closed')
         return TransitionCallbackReturn.SUCCESS
 
     def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
@@ -492,21 +493,11 @@ class GripperDriverNode(LifecycleNode):
         return status
 
 
-def main(args: list[str] | None = None) -> None:
-    """Run the gripper driver until interrupted; hold (or release) the grip on exit."""
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = GripperDriverNode()
-        rclpy.spin(node)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        if node is not None:
-            node.stop_hardware('process exit')
-            node.destroy_node()
-        rclpy.try_shutdown()
+def main(args: list[str] | None = None) -> int:
+    """Run the gripper driver until SIGINT/SIGTERM; the shutdown transition then holds (or,
+    with ``release_on_shutdown``, releases) the grip and closes the port."""
+    return run_node(GripperDriverNode, args)
 
 
 if __name__ == '__main__':
-    main()
+    raise SystemExit(main())

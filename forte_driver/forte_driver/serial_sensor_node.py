@@ -28,7 +28,6 @@ import threading
 import time
 from dataclasses import dataclass
 
-import rclpy
 import serial
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import (
@@ -38,8 +37,7 @@ from rcl_interfaces.msg import (
     ParameterType,
     SetParametersResult,
 )
-from rclpy.executors import ExternalShutdownException
-from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.lifecycle import LifecycleState, TransitionCallbackReturn
 from rclpy.qos import (
     DurabilityPolicy,
     HistoryPolicy,
@@ -63,6 +61,7 @@ from forte_driver.protocol import (
     StreamAssembler,
 )
 from forte_msgs.msg import TactileFrames
+from forte_ros import ForteLifecycleNode, publish_quietly, run_node
 
 FRAMES_TOPIC = 'tactile/frames'
 DIAGNOSTICS_TOPIC = '/diagnostics'
@@ -79,7 +78,7 @@ class _Window:
     started_ns: int = 0
 
 
-class SerialSensorNode(LifecycleNode):
+class SerialSensorNode(ForteLifecycleNode):
     """Managed driver of the FORTE sensor board (binary protocol v1 or legacy ASCII)."""
 
     def __init__(self, **kwargs) -> None:
@@ -99,6 +98,8 @@ class SerialSensorNode(LifecycleNode):
         self._auto_reactivate = False
         self._last_reconnect_attempt = 0.0
         self._frames_publisher = None
+        #: publishes dropped because the process was stopping (``late_publishes``)
+        self.late = {'late_publishes': 0}
         self._diagnostics_publisher = self.create_publisher(
             DiagnosticArray, DIAGNOSTICS_TOPIC,
             QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
@@ -283,6 +284,7 @@ class SerialSensorNode(LifecycleNode):
         self._publishing = False
         self._shutdown_io()
         self._state_label = 'finalized'
+        self.get_logger().info(f'shut down from {state.label}: reader stopped, port closed')
         return TransitionCallbackReturn.SUCCESS
 
     def _shutdown_io(self) -> None:
@@ -458,7 +460,8 @@ class SerialSensorNode(LifecycleNode):
             message.data = array.array('d', batch.values.ravel().tobytes())
             message.dropped_frames = self._assembler.dropped_frames
             message.corrupt_frames = self._assembler.corrupt_frames
-            publisher.publish(message)
+            if not publish_quietly(publisher, message, self.context, self.late):
+                return  # the process is stopping
             self._published_batches += 1
             self._published_samples += len(batch.values)
 
@@ -558,21 +561,15 @@ class SerialSensorNode(LifecycleNode):
         message = DiagnosticArray()
         message.header.stamp = Time(nanoseconds=now_ns).to_msg()
         message.status = [status]
-        self._diagnostics_publisher.publish(message)
+        publish_quietly(self._diagnostics_publisher, message, self.context, self.late)
 
 
-def main(args=None) -> None:
-    """Run the node; configure/activate it with a lifecycle manager or ``-p autostart:=true``."""
-    rclpy.init(args=args)
-    node = SerialSensorNode()
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+def main(args: list[str] | None = None) -> int:
+    """Run the node until SIGINT/SIGTERM; configure/activate it with a lifecycle manager or
+    ``-p autostart:=true``. On the signal the node goes through its shutdown transition
+    (STOP sent to the device, reader thread joined, port closed)."""
+    return run_node(SerialSensorNode, args)
 
 
 if __name__ == '__main__':
-    main()
+    raise SystemExit(main())

@@ -29,7 +29,6 @@ import math
 import threading
 import time
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped
 from rcl_interfaces.msg import (
@@ -38,8 +37,7 @@ from rcl_interfaces.msg import (
     ParameterDescriptor,
     SetParametersResult,
 )
-from rclpy.executors import ExternalShutdownException
-from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.lifecycle import LifecycleState, TransitionCallbackReturn
 from rclpy.qos import (
     HistoryPolicy,
     QoSProfile,
@@ -58,6 +56,7 @@ from forte_driver.sim import (
     make_scene,
 )
 from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileFrames
+from forte_ros import ForteLifecycleNode, run_node
 
 LEFT_JOINT = 'forte_left_finger_joint'
 RIGHT_JOINT = 'forte_right_finger_joint'
@@ -71,7 +70,7 @@ def _reliable(depth: int) -> QoSProfile:
                       reliability=ReliabilityPolicy.RELIABLE)
 
 
-class SimNode(LifecycleNode):
+class SimNode(ForteLifecycleNode):
     """The simulated FORTE scene as a ROS 2 lifecycle node (see the module docstring)."""
 
     def __init__(self, **kwargs) -> None:
@@ -234,8 +233,11 @@ class SimNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
-        self._stop_timer()
-        self._destroy_publishers()
+        with self._production_lock:
+            self._stop_timer()
+            self._destroy_publishers()
+        self.get_logger().info(f'shut down from {state.label}: production stopped after '
+                               f'{self._batches} batches')
         return TransitionCallbackReturn.SUCCESS
 
     def _destroy_publishers(self) -> None:
@@ -397,18 +399,10 @@ class SimNode(LifecycleNode):
         self._diagnostics_publisher.publish(array)
 
 
-def main(args=None) -> None:
-    """Run the simulated scene node (autostart: configured and active at start-up)."""
-    rclpy.init(args=args)
-    node = SimNode()
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+def main(args: list[str] | None = None) -> int:
+    """Run the simulated scene node until SIGINT/SIGTERM (autostart: active at start-up)."""
+    return run_node(SimNode, args)
 
 
 if __name__ == '__main__':
-    main()
+    raise SystemExit(main())

@@ -701,7 +701,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     bus = SimulatedServoBus(args.ids, args.baud, args.positions)
     stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    for signum in (signal.SIGINT, signal.SIGTERM):  # a clean stop, also during start-up
+        signal.signal(signum, lambda *_: stop.set())
     bus.start()
     if args.link:
         if os.path.islink(args.link):

@@ -39,7 +39,6 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import (
     FloatingPointRange,
@@ -48,7 +47,6 @@ from rcl_interfaces.msg import (
     SetParametersResult,
 )
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.task import Future
@@ -59,6 +57,7 @@ from forte_msgs.srv import Tare
 from forte_perception.force import ForceModel
 from forte_perception.pipeline import PerceptionOutput, PerceptionPipeline, PipelineConfig
 from forte_perception.slip import SlipParams
+from forte_ros import run_node
 
 CHANNEL_NAMES = ('left_distal', 'left_middle', 'left_root',
                  'right_distal', 'right_middle', 'right_root')
@@ -466,25 +465,13 @@ class PerceptionNode(Node):
         self._diag_pub.publish(array)
 
 
-def main(args=None) -> None:
-    """Entry point ``perception_node``."""
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = PerceptionNode()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+def main(args: list[str] | None = None) -> int:
+    """Entry point ``perception_node``: spin until SIGINT/SIGTERM, then stop cleanly."""
+    return run_node(PerceptionNode, args)
 
 
 if __name__ == '__main__':
-    main()
+    raise SystemExit(main())
 
 
 __all__ = ['PerceptionNode', 'build_config', 'load_model', 'main']

@@ -1,0 +1,223 @@
+"""Test helpers: a node executable as a child process, and an rclpy probe to talk to it.
+
+Used by the shutdown and lifecycle tests of every FORTE package, which start the real
+console scripts, let them publish, stop them with SIGINT or SIGTERM and check the exit
+code, the time to exit and the output.
+
+:class:`NodeProcess` refuses to start unless ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and
+a ``ROS_DOMAIN_ID`` are set (the tests' conftest does it with
+``forte_bringup.ros_isolation.isolate_ros_network``): no DDS traffic leaves loopback.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import rclpy
+from lifecycle_msgs.srv import ChangeState, GetState
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import QoSProfile
+
+#: Words whose presence in a node's output means it did not stop cleanly.
+FAILURE_MARKERS = ('Traceback', 'RCLError', 'InvalidHandle', 'Exception ignored')
+
+
+def ros_args(**parameters: Any) -> list[str]:
+    """``--ros-args -p name:=value ...`` for ``parameters`` (bools as true/false)."""
+    words = ['--ros-args']
+    for name, value in parameters.items():
+        if isinstance(value, bool):
+            text = 'true' if value else 'false'
+        elif isinstance(value, (list, tuple)):
+            text = '[' + ', '.join(repr(item) for item in value) + ']'
+        else:
+            text = str(value)
+        words += ['-p', f'{name}:={text}']
+    return words
+
+
+def check_isolated_network() -> None:
+    """Raise unless DDS discovery is confined to this machine and a domain id is set."""
+    if os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE') != 'LOCALHOST' or not os.environ.get(
+            'ROS_DOMAIN_ID'):
+        raise RuntimeError('set ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a private '
+                           'ROS_DOMAIN_ID first (forte_bringup.ros_isolation)')
+
+
+class NodeProcess:
+    """A node executable in a child process; stdout and stderr are collected (merged).
+
+    Parameters
+    ----------
+    command : list of str
+        Executable and arguments, e.g. ``['sim_node', *ros_args(autostart=True)]``.
+    env : dict, optional
+        Extra environment variables.
+    """
+
+    def __init__(self, command: list[str], env: dict[str, str] | None = None) -> None:
+        check_isolated_network()
+        self.command = command
+        self._lines: list[str] = []
+        self._lock = threading.Lock()
+        self.process = subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1,
+            env={**os.environ, 'PYTHONUNBUFFERED': '1', **(env or {})})
+        self._pump = threading.Thread(target=self._read, daemon=True)
+        self._pump.start()
+
+    def _read(self) -> None:
+        for line in self.process.stdout:
+            with self._lock:
+                self._lines.append(line)
+
+    @property
+    def output(self) -> str:
+        """Everything the process wrote so far."""
+        with self._lock:
+            return ''.join(self._lines)
+
+    def wait_for_output(self, text: str, timeout: float = 20.0) -> bool:
+        """Wait until ``text`` appears in the output (False on timeout or exit)."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if text in self.output:
+                return True
+            if self.process.poll() is not None:
+                self._pump.join(timeout=2.0)
+                return text in self.output
+            time.sleep(0.05)
+        return text in self.output
+
+    def stop(self, signum: int = signal.SIGINT, timeout: float = 10.0) -> tuple[int | None, float]:
+        """Send ``signum`` and wait for the exit.
+
+        Returns
+        -------
+        tuple
+            ``(exit code, seconds from the signal to the exit)``; the code is None if the
+            process had to be killed after ``timeout``.
+        """
+        started = time.monotonic()
+        if self.process.poll() is None:
+            self.process.send_signal(signum)
+        try:
+            code = self.process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.kill()
+            return None, time.monotonic() - started
+        elapsed = time.monotonic() - started
+        self._pump.join(timeout=5.0)
+        return code, elapsed
+
+    def kill(self) -> None:
+        """SIGKILL if still running (test clean-up)."""
+        if self.process.poll() is None:
+            self.process.kill()
+            self.process.wait(10.0)
+        self._pump.join(timeout=5.0)
+
+    def failures(self) -> list[str]:
+        """Output lines that show an unclean stop (see :data:`FAILURE_MARKERS`)."""
+        return [line for line in self.output.splitlines()
+                if any(marker in line for marker in FAILURE_MARKERS)]
+
+    def __enter__(self) -> NodeProcess:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.kill()
+
+
+def wait_until(condition: Callable[[], Any], timeout: float = 20.0,
+               period: float = 0.05) -> Any:
+    """Poll ``condition`` until it returns a true value or ``timeout`` [s] passes."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = condition()
+        if value:
+            return value
+        time.sleep(period)
+    return condition()
+
+
+class Probe:
+    """An rclpy node in its own context, spun in a thread: counts messages, calls services.
+
+    Parameters
+    ----------
+    name : str
+        Node name of the probe.
+    """
+
+    def __init__(self, name: str = 'forte_test_probe') -> None:
+        check_isolated_network()
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node(name, context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.counts: dict[str, int] = {}
+        self._clients: dict[tuple[type, str], Any] = {}
+        self._closing = threading.Event()
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        while not self._closing.is_set():
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def count(self, message_type: type, topic: str, qos: QoSProfile | int = 10) -> None:
+        """Count the messages on ``topic`` in ``counts[topic]``."""
+        self.counts[topic] = 0
+
+        def on_message(_message: Any) -> None:
+            self.counts[topic] += 1
+
+        self.node.create_subscription(message_type, topic, on_message, qos)
+
+    def call(self, service_type: type, name: str, request: Any,
+             timeout: float = 10.0) -> Any | None:
+        """Call a service; the response, or None if none answered within ``timeout``."""
+        client = self._clients.get((service_type, name))
+        if client is None:
+            client = self._clients[(service_type, name)] = self.node.create_client(
+                service_type, name)
+        if not client.wait_for_service(timeout_sec=timeout):
+            return None
+        future = client.call_async(request)
+        if not wait_until(future.done, timeout, period=0.01):
+            return None
+        return future.result()
+
+    def change_state(self, node: str, transition_id: int = 0, label: str = '') -> bool | None:
+        """``<node>/change_state``: its ``success``, or None without an answer."""
+        request = ChangeState.Request()
+        request.transition.id = transition_id
+        request.transition.label = label
+        response = self.call(ChangeState, f'{node}/change_state', request)
+        return None if response is None else response.success
+
+    def state(self, node: str) -> str | None:
+        """``<node>/get_state``: the label of the current state, or None without an answer."""
+        response = self.call(GetState, f'{node}/get_state', GetState.Request())
+        return None if response is None else response.current_state.label
+
+    def close(self) -> None:
+        """Stop spinning and shut the probe's context down."""
+        self._closing.set()
+        self._thread.join(timeout=5.0)
+        self.executor.shutdown(timeout_sec=1.0)
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+    def __enter__(self) -> Probe:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
