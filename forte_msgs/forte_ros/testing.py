@@ -11,11 +11,13 @@ a ``ROS_DOMAIN_ID`` are set (the tests' conftest does it with
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import subprocess
 import threading
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import rclpy
@@ -49,19 +51,45 @@ def check_isolated_network() -> None:
                            'ROS_DOMAIN_ID first (forte_bringup.ros_isolation)')
 
 
+def find_executable(name: str) -> str:
+    """A node executable found as ``ros2 run`` finds it, else on ``PATH``.
+
+    colcon installs console scripts in ``<prefix>/lib/<package>/``, which is not on
+    ``PATH``; a name containing ``/`` is returned unchanged.
+
+    Raises
+    ------
+    FileNotFoundError
+        If no prefix on ``AMENT_PREFIX_PATH`` and no ``PATH`` entry has it.
+    """
+    if '/' in name:
+        return name
+    for prefix in filter(None, os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)):
+        for candidate in sorted(Path(prefix, 'lib').glob(f'*/{name}')):
+            if candidate.is_file() and os.access(candidate, os.X_OK):
+                return str(candidate)
+    found = shutil.which(name)
+    if found is None:
+        raise FileNotFoundError(f'{name}: in no <prefix>/lib/<package>/ of AMENT_PREFIX_PATH '
+                                'and not on PATH (source install/setup.bash)')
+    return found
+
+
 class NodeProcess:
     """A node executable in a child process; stdout and stderr are collected (merged).
 
     Parameters
     ----------
     command : list of str
-        Executable and arguments, e.g. ``['sim_node', *ros_args(autostart=True)]``.
+        Executable and arguments, e.g. ``['sim_node', *ros_args(autostart=True)]``; a bare
+        executable name is found with :func:`find_executable`.
     env : dict, optional
         Extra environment variables.
     """
 
     def __init__(self, command: list[str], env: dict[str, str] | None = None) -> None:
         check_isolated_network()
+        command = [find_executable(command[0]), *command[1:]]
         self.command = command
         self._lines: list[str] = []
         self._lock = threading.Lock()
