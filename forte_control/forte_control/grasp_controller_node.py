@@ -24,14 +24,11 @@ import math
 import threading
 import time
 from collections import deque
-from dataclasses import fields, replace
+from dataclasses import replace
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped
 from rcl_interfaces.msg import (
-    FloatingPointRange,
-    ParameterDescriptor,
-    ParameterType,
     SetParametersResult,
 )
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -41,19 +38,16 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
+from forte_control.node_parameters import (
+    CONTROLLER_FIELDS,  # noqa: F401 - importable from here as before
+    controller_changes,
+    declare_parameters,
+    read_controller_params,
+)
 from forte_control.state_machine import (
     ACTIVE_STATES,
-    HARD_MAX_CURRENT,
-    HARD_MAX_FORCE,
-    HARD_MAX_FRESHNESS,
-    HARD_MAX_LIFT_DISTANCE,
-    HARD_MAX_LIFT_SPEED,
-    HARD_MAX_SERVO_SPEED,
-    HARD_MAX_SLIP_INCREMENT,
-    HARD_MAX_TIGHTENING,
     ControlInputs,
     Controller,
-    ControllerParams,
     ControlOutputs,
     GraspGoal,
     GraspState,
@@ -73,67 +67,6 @@ try:  # standard gripper action for MoveIt, only where control_msgs is installed
 except ImportError:  # pragma: no cover - depends on the installation
     GripperCommand = None
 
-#: Descriptions and (low, high) ranges of the ControllerParams fields exposed as parameters.
-PARAMETER_DOCS: dict[str, tuple[str, tuple[float, float] | None]] = {
-    'closing_speed': ('servo command ramp while closing to contact [rad/s]',
-                      (0.0, HARD_MAX_SERVO_SPEED)),
-    'contact_mode': ("contact needed on 'either' finger (paper: any channel) or 'both'", None),
-    'min_angle': ('most closed servo command allowed [rad]', (0.0, math.pi)),
-    'no_contact_settle': ('wait at min_angle before NO_CONTACT [s]', (0.0, 10.0)),
-    'loading_speed': ('servo command ramp while loading the initial force [rad/s]',
-                      (0.0, HARD_MAX_SERVO_SPEED)),
-    'initial_force': ('initial force f_init loaded after contact [N]', (0.0, HARD_MAX_FORCE)),
-    'initial_force_mode': ("'relative' (f_init above the force at contact) or 'absolute'",
-                           None),
-    'invalid_force_timeout': ('longest wait for a valid force while loading [s]', (0.0, 5.0)),
-    'lift_speed': ('arm lift speed [m/s]', (0.0, HARD_MAX_LIFT_SPEED)),
-    'lift_distance': ('lift height that counts as success [m]', (0.0, HARD_MAX_LIFT_DISTANCE)),
-    'hold_duration': ('time held at the lift height before LIFTED [s]', (0.0, 600.0)),
-    'slip_increment': ('servo tightening per slip event (paper: 0.88 deg) [rad]',
-                       (0.0, HARD_MAX_SLIP_INCREMENT)),
-    'slip_refractory': ('minimum time between two slip tightenings [s]', (0.0, 10.0)),
-    'slip_speed': ('servo profile velocity of a slip tightening [rad/s]',
-                   (0.0, HARD_MAX_SERVO_SPEED)),
-    'drop_force_fraction': ('drop when force < fraction x reference force', (0.0, 1.0)),
-    'drop_min_reference_force': ('force drop detector armed above this reference [N]',
-                                 (0.0, HARD_MAX_FORCE)),
-    'drop_level_fraction': ('drop when deformation < fraction x reference', (0.0, 1.0)),
-    'drop_min_reference_level': ('deformation drop detector armed above this [-1..1]',
-                                 (0.0, 2.0)),
-    'drop_on_contact_loss': ('also detect a drop when both contact flags are false', None),
-    'drop_confirm_time': ('a drop condition must persist this long [s]', (0.0, 10.0)),
-    'on_off_closing_speed': ('constant closing speed of the ON_OFF controller [rad/s]',
-                             (0.0, HARD_MAX_SERVO_SPEED)),
-    'on_off_settle': ('ON_OFF wait at theta = 0 before lifting [s]', (0.0, 10.0)),
-    'open_angle': ('servo command when releasing [rad]', (0.0, math.pi)),
-    'release_speed': ('servo speed when releasing [rad/s]', (0.0, HARD_MAX_SERVO_SPEED)),
-    'release_tolerance': ('joint angle tolerance that ends RELEASING [rad]', (0.0, 1.0)),
-    'release_timeout': ('longest RELEASING [s]', (0.0, 60.0)),
-    'max_force': ('grip force cap [N]', (0.0, HARD_MAX_FORCE)),
-    'force_limit_confirm': ('force above the cap this long before FORCE_LIMIT (no tightening '
-                            'meanwhile) [s]', (0.0, 0.2)),
-    'max_tightening': ('cap on total slip tightening [rad]', (0.0, HARD_MAX_TIGHTENING)),
-    'max_lift_distance': ('lift height cap [m]', (0.0, HARD_MAX_LIFT_DISTANCE)),
-    'max_lift_speed': ('largest lift speed a goal may request [m/s]', (0.0, HARD_MAX_LIFT_SPEED)),
-    'perception_timeout': ('perception freshness bound [s]', (0.0, HARD_MAX_FRESHNESS)),
-    'joint_state_timeout': ('joint state freshness bound [s]', (0.0, HARD_MAX_FRESHNESS)),
-    'invalid_input_timeout': ('perception data_valid false this long -> fault [s]', (0.0, 5.0)),
-    'timeout': ('whole-grasp timeout [s]', (0.0, 3600.0)),
-    'max_current': ('servo current limit sent with every command [A]', (0.0, HARD_MAX_CURRENT)),
-}
-
-CONTROLLER_FIELDS = [item.name for item in fields(ControllerParams)]
-
-
-def _float_descriptor(description: str, bounds: tuple[float, float] | None,
-                      read_only: bool = False) -> ParameterDescriptor:
-    descriptor = ParameterDescriptor(description=description, read_only=read_only)
-    if bounds is not None:
-        descriptor.floating_point_range = [FloatingPointRange(
-            from_value=float(bounds[0]), to_value=float(bounds[1]), step=0.0)]
-    return descriptor
-
-
 def stamp_to_seconds(stamp) -> float:
     """builtin_interfaces/Time -> float seconds (NaN for a zero stamp, i.e. never set)."""
     if stamp.sec == 0 and stamp.nanosec == 0:
@@ -146,45 +79,10 @@ class GraspControllerNode(Node):
 
     def __init__(self, **kwargs) -> None:
         super().__init__('grasp_controller', **kwargs)
-        defaults = ControllerParams()
-        for name in CONTROLLER_FIELDS:
-            description, bounds = PARAMETER_DOCS[name]
-            value = getattr(defaults, name)
-            if isinstance(value, bool):
-                self.declare_parameter(name, value, ParameterDescriptor(description=description))
-            elif isinstance(value, str):
-                self.declare_parameter(name, value, ParameterDescriptor(description=description))
-            else:
-                self.declare_parameter(name, float(value),
-                                       _float_descriptor(description, bounds))
-        self.declare_parameter('control_rate', 20.0, _float_descriptor(
-            'rate of the control step and of arm velocity commands [Hz]', (1.0, 200.0),
-            read_only=True))
-        self.declare_parameter('feedback_rate', 10.0, _float_descriptor(
-            'rate of action feedback and grasp/state messages [Hz]', (0.1, 100.0),
-            read_only=True))
-        self.declare_parameter('step_on_perception', True, ParameterDescriptor(
-            description='also step the state machine on every tactile/state message (slip '
-                        'messages are always handled at once)'))
-        self.declare_parameter('arm_frame_id', 'base_link', ParameterDescriptor(
-            description="frame_id of arm/cmd_vel (the arm's base frame)"))
-        self.declare_parameter('gripper_frame_id', 'forte_base_link', ParameterDescriptor(
-            description='frame_id of grasp/state and gripper/command'))
-        self.declare_parameter('joint_names', ['forte_left_finger_joint',
-                                               'forte_right_finger_joint'],
-                               ParameterDescriptor(
-                                   description='joints whose mean position is the servo angle',
-                                   type=ParameterType.PARAMETER_STRING_ARRAY, read_only=True))
-        self.declare_parameter('use_receive_time', False, ParameterDescriptor(
-            description='judge data freshness by receive time instead of header stamps (for '
-                        'replays of recorded stamps without a /clock); read only',
-            read_only=True))
-        self.declare_parameter('dry_run', False, ParameterDescriptor(
-            description='compute everything but publish zero arm velocity and no servo '
-                        'commands (bag replay); refused while a grasp is active'))
+        declare_parameters(self)
 
         self._lock = threading.RLock()
-        self._machine = GraspStateMachine(self._read_controller_params())
+        self._machine = GraspStateMachine(read_controller_params(self))
         self._perception: PerceptionInput | None = None
         self._slip_pending = False
         self._joint: JointInput | None = None
@@ -250,30 +148,15 @@ class GraspControllerNode(Node):
             f'{"available" if GripperCommand is not None else "not installed"})')
 
     # -- parameters ----------------------------------------------------------------------
-    def _read_controller_params(self) -> ControllerParams:
-        values = {}
-        defaults = ControllerParams()
-        for name in CONTROLLER_FIELDS:
-            value = self.get_parameter(name).value
-            default = getattr(defaults, name)
-            values[name] = type(default)(value)
-        return ControllerParams(**values)
-
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         with self._lock:
             if not hasattr(self, '_machine'):
                 return SetParametersResult(successful=True)
-            changes = {}
-            defaults = ControllerParams()
+            changes, error = controller_changes(parameters)
+            if error:
+                return SetParametersResult(successful=False, reason=error)
             for parameter in parameters:
-                if parameter.name in CONTROLLER_FIELDS:
-                    default = getattr(defaults, parameter.name)
-                    try:
-                        changes[parameter.name] = type(default)(parameter.value)
-                    except (TypeError, ValueError) as error:
-                        return SetParametersResult(successful=False,
-                                                   reason=f'{parameter.name}: {error}')
-                elif parameter.name == 'dry_run':
+                if parameter.name == 'dry_run':
                     if self._machine.state in ACTIVE_STATES:
                         return SetParametersResult(
                             successful=False, reason='dry_run cannot change during a grasp')
