@@ -20,7 +20,7 @@ from collections.abc import Callable
 
 import pytest
 import rclpy
-from builtin_interfaces.msg import Time
+import rclpy.time
 from geometry_msgs.msg import TwistStamped
 from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
@@ -137,10 +137,9 @@ class FakeWorld(Node):
             self.joint_pub.publish(joints)
 
 
-def to_time(seconds: float) -> Time:
+def to_time(seconds: float):
     """Float seconds -> builtin_interfaces/Time."""
-    nanoseconds = round(seconds * 1e9)
-    return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
+    return rclpy.time.Time(nanoseconds=round(seconds * 1e9)).to_msg()
 
 
 class Harness:
