@@ -182,7 +182,7 @@ class LatencyWorld:
         self.subscriber_node.create_subscription(TwistStamped, 'arm/cmd_vel',
                                                  lambda msg: None, q10)
         self.publisher_node.create_timer(0.01, self.tick)
-        self.executor = executor_type(num_threads=2)
+        self.executor = executor_type()
         self.executor.add_node(self.publisher_node)
         self.executor.add_node(self.subscriber_node)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
@@ -243,7 +243,7 @@ def _wait(condition, timeout):
 def bench_latency(events: int = 60) -> None:
     import rclpy
     from rclpy.action import ActionClient
-    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
 
     from forte_msgs.action import Grasp
@@ -251,8 +251,7 @@ def bench_latency(events: int = 60) -> None:
     rclpy.init()
     params = {'closing_speed': 1.0, 'loading_speed': 0.5, 'lift_speed': 0.002,
               'lift_distance': 0.05, 'slip_increment': 0.004, 'slip_refractory': 0.0,
-              'max_tightening': 0.6, 'perception_timeout': 1.0, 'joint_state_timeout': 1.0,
-              'step_on_perception': False}
+              'max_tightening': 0.6, 'perception_timeout': 1.0, 'joint_state_timeout': 1.0}
     args = ['--ros-args']
     for name, value in params.items():
         args += ['-p', f'{name}:={value}']
@@ -260,10 +259,10 @@ def bench_latency(events: int = 60) -> None:
     controller = subprocess.Popen(
         [sys.executable, '-m', 'forte_control.grasp_controller_node', *args], env=env,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    world = LatencyWorld(rclpy, MultiThreadedExecutor)
+    world = LatencyWorld(rclpy, SingleThreadedExecutor)
     client_node = Node('bench_client')
     client = ActionClient(client_node, Grasp, 'grasp')
-    client_executor = MultiThreadedExecutor(num_threads=2)
+    client_executor = SingleThreadedExecutor()
     client_executor.add_node(client_node)
     threading.Thread(target=client_executor.spin, daemon=True).start()
     try:
@@ -329,7 +328,6 @@ def bench_latency(events: int = 60) -> None:
 def bench_latency_in_process(events: int = 200) -> None:
     """Callback entry -> publish inside the node (perf_counter), node in this process."""
     import rclpy
-    from rclpy.executors import MultiThreadedExecutor
     from rclpy.parameter import Parameter
 
     from forte_control.grasp_controller_node import GraspControllerNode
@@ -342,9 +340,7 @@ def bench_latency_in_process(events: int = 200) -> None:
         Parameter('max_tightening', value=0.6), Parameter('lift_distance', value=0.2),
         Parameter('timeout', value=600.0),
         Parameter('perception_timeout', value=1.0), Parameter('joint_state_timeout', value=1.0)])
-    executor = MultiThreadedExecutor(num_threads=3)
-    executor.add_node(node)
-    threading.Thread(target=executor.spin, daemon=True).start()
+    # the node is not spun: this thread calls its callbacks, as its one executor thread would
     from forte_control.state_machine import ControlInputs, JointInput, PerceptionInput
 
     def msg(slip, contact=True):
@@ -360,26 +356,19 @@ def bench_latency_in_process(events: int = 200) -> None:
         return m
 
     now = node.get_clock().now().nanoseconds * 1e-9
-    with node._lock:
-        node._joint = JointInput(stamp=now, theta=0.5)
-        node._perception = PerceptionInput(stamp=now, force=0.3, force_valid=True,
-                                           contact=(True, True), slip_active=True,
-                                           data_valid=True)
-        node._machine.start(GraspGoal(), now, ControlInputs(node._perception, node._joint))
+    node._joint = JointInput(stamp=now, theta=0.5)
+    node._perception = PerceptionInput(stamp=now, force=0.3, force_valid=True,
+                                       contact=(True, True), slip_active=True, data_valid=True)
+    node._machine.start(GraspGoal(), now, ControlInputs(node._perception, node._joint))
     for _ in range(5):
-        with node._lock:
-            node._joint = JointInput(stamp=node.get_clock().now().nanoseconds * 1e-9,
-                                     theta=0.5)
+        node._joint = JointInput(stamp=node.get_clock().now().nanoseconds * 1e-9, theta=0.5)
         node._on_tactile(msg(False))
         time.sleep(0.01)
     node.slip_reaction_latency.clear()
     for _ in range(events):
-        with node._lock:
-            node._joint = JointInput(stamp=node.get_clock().now().nanoseconds * 1e-9,
-                                     theta=0.5)
+        node._joint = JointInput(stamp=node.get_clock().now().nanoseconds * 1e-9, theta=0.5)
         node._on_tactile(msg(True))
     latencies = list(node.slip_reaction_latency)
-    executor.shutdown(timeout_sec=2.0)
     node.destroy_node()
     rclpy.try_shutdown()
     if latencies:

@@ -8,52 +8,53 @@ Serves the ``grasp`` action (forte_msgs/action/Grasp), publishes ``grasp/state``
 also serves ``gripper_cmd`` (control_msgs/action/GripperCommand) so MoveIt can drive the
 gripper.
 
-Threading: every callback that touches the state machine (subscriptions, the 20 Hz control
-timer, the reset service, goal/cancel callbacks) runs under one lock; the action's execute
-callback only waits for an event and publishes feedback, in its own reentrant group, so a
-running goal never blocks the control callbacks. Run it in a MultiThreadedExecutor (``main``
-does).
+Execution: one thread runs every callback (``main`` spins a ``SingleThreadedExecutor``), so
+nothing is locked and no callback blocks. The action execute callbacks are coroutines: a
+Grasp goal starts the machine and awaits a future that the machine's step completes when
+the grasp reaches its outcome (a step from the control timer, a perception message, the
+cancel callback or :meth:`GraspControllerNode.prepare_shutdown`); feedback goes out from the
+``feedback_rate`` timer. A GripperCommand goal awaits a future the control timer completes
+when the joint reaches the position, stalls or times out.
 
 Slip reaction: a TactileState carrying ``slip`` during LIFTING / HOLDING steps the machine
 inside the subscription callback and publishes the tightening command from there, without
 waiting for the control timer.
+
+Parameters: declared from the table of :mod:`forte_control.parameters`
+(:mod:`forte_control.node_parameters`), the one source of their units, ranges and
+descriptions.
 """
 from __future__ import annotations
 
 import math
-import threading
 import time
 from collections import deque
-from dataclasses import fields, replace
+from dataclasses import dataclass, replace
+from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped
-from rcl_interfaces.msg import (
-    FloatingPointRange,
-    ParameterDescriptor,
-    ParameterType,
-    SetParametersResult,
-)
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
-from rclpy.executors import MultiThreadedExecutor
+from rclpy.action.server import ServerGoalHandle
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.task import Future
 from sensor_msgs.msg import JointState
 
+from forte_control.node_parameters import (
+    CONTROLLER_FIELDS,
+    controller_changes,
+    declare_parameters,
+    read_controller_params,
+)
 from forte_control.state_machine import (
     ACTIVE_STATES,
-    HARD_MAX_CURRENT,
-    HARD_MAX_FORCE,
-    HARD_MAX_FRESHNESS,
-    HARD_MAX_LIFT_DISTANCE,
-    HARD_MAX_LIFT_SPEED,
-    HARD_MAX_SERVO_SPEED,
-    HARD_MAX_SLIP_INCREMENT,
-    HARD_MAX_TIGHTENING,
     ControlInputs,
     Controller,
-    ControllerParams,
     ControlOutputs,
     GraspGoal,
     GraspState,
@@ -73,118 +74,50 @@ try:  # standard gripper action for MoveIt, only where control_msgs is installed
 except ImportError:  # pragma: no cover - depends on the installation
     GripperCommand = None
 
-#: Descriptions and (low, high) ranges of the ControllerParams fields exposed as parameters.
-PARAMETER_DOCS: dict[str, tuple[str, tuple[float, float] | None]] = {
-    'closing_speed': ('servo command ramp while closing to contact [rad/s]',
-                      (0.0, HARD_MAX_SERVO_SPEED)),
-    'contact_mode': ("contact needed on 'either' finger (paper: any channel) or 'both'", None),
-    'min_angle': ('most closed servo command allowed [rad]', (0.0, math.pi)),
-    'no_contact_settle': ('wait at min_angle before NO_CONTACT [s]', (0.0, 10.0)),
-    'loading_speed': ('servo command ramp while loading the initial force [rad/s]',
-                      (0.0, HARD_MAX_SERVO_SPEED)),
-    'initial_force': ('initial force f_init loaded after contact [N]', (0.0, HARD_MAX_FORCE)),
-    'initial_force_mode': ("'relative' (f_init above the force at contact) or 'absolute'",
-                           None),
-    'invalid_force_timeout': ('longest wait for a valid force while loading [s]', (0.0, 5.0)),
-    'lift_speed': ('arm lift speed [m/s]', (0.0, HARD_MAX_LIFT_SPEED)),
-    'lift_distance': ('lift height that counts as success [m]', (0.0, HARD_MAX_LIFT_DISTANCE)),
-    'hold_duration': ('time held at the lift height before LIFTED [s]', (0.0, 600.0)),
-    'slip_increment': ('servo tightening per slip event (paper: 0.88 deg) [rad]',
-                       (0.0, HARD_MAX_SLIP_INCREMENT)),
-    'slip_refractory': ('minimum time between two slip tightenings [s]', (0.0, 10.0)),
-    'slip_speed': ('servo profile velocity of a slip tightening [rad/s]',
-                   (0.0, HARD_MAX_SERVO_SPEED)),
-    'drop_force_fraction': ('drop when force < fraction x reference force', (0.0, 1.0)),
-    'drop_min_reference_force': ('force drop detector armed above this reference [N]',
-                                 (0.0, HARD_MAX_FORCE)),
-    'drop_level_fraction': ('drop when deformation < fraction x reference', (0.0, 1.0)),
-    'drop_min_reference_level': ('deformation drop detector armed above this [-1..1]',
-                                 (0.0, 2.0)),
-    'drop_on_contact_loss': ('also detect a drop when both contact flags are false', None),
-    'drop_confirm_time': ('a drop condition must persist this long [s]', (0.0, 10.0)),
-    'on_off_closing_speed': ('constant closing speed of the ON_OFF controller [rad/s]',
-                             (0.0, HARD_MAX_SERVO_SPEED)),
-    'on_off_settle': ('ON_OFF wait at theta = 0 before lifting [s]', (0.0, 10.0)),
-    'open_angle': ('servo command when releasing [rad]', (0.0, math.pi)),
-    'release_speed': ('servo speed when releasing [rad/s]', (0.0, HARD_MAX_SERVO_SPEED)),
-    'release_tolerance': ('joint angle tolerance that ends RELEASING [rad]', (0.0, 1.0)),
-    'release_timeout': ('longest RELEASING [s]', (0.0, 60.0)),
-    'max_force': ('grip force cap [N]', (0.0, HARD_MAX_FORCE)),
-    'force_limit_confirm': ('force above the cap this long before FORCE_LIMIT (no tightening '
-                            'meanwhile) [s]', (0.0, 0.2)),
-    'max_tightening': ('cap on total slip tightening [rad]', (0.0, HARD_MAX_TIGHTENING)),
-    'max_lift_distance': ('lift height cap [m]', (0.0, HARD_MAX_LIFT_DISTANCE)),
-    'max_lift_speed': ('largest lift speed a goal may request [m/s]', (0.0, HARD_MAX_LIFT_SPEED)),
-    'perception_timeout': ('perception freshness bound [s]', (0.0, HARD_MAX_FRESHNESS)),
-    'joint_state_timeout': ('joint state freshness bound [s]', (0.0, HARD_MAX_FRESHNESS)),
-    'invalid_input_timeout': ('perception data_valid false this long -> fault [s]', (0.0, 5.0)),
-    'timeout': ('whole-grasp timeout [s]', (0.0, 3600.0)),
-    'max_current': ('servo current limit sent with every command [A]', (0.0, HARD_MAX_CURRENT)),
-}
-
-CONTROLLER_FIELDS = [item.name for item in fields(ControllerParams)]
+__all__ = ['CONTROLLER_FIELDS', 'GraspControllerNode', 'main', 'stamp_to_seconds']
 
 
-def _float_descriptor(description: str, bounds: tuple[float, float] | None,
-                      read_only: bool = False) -> ParameterDescriptor:
-    descriptor = ParameterDescriptor(description=description, read_only=read_only)
-    if bounds is not None:
-        descriptor.floating_point_range = [FloatingPointRange(
-            from_value=float(bounds[0]), to_value=float(bounds[1]), step=0.0)]
-    return descriptor
-
-
-def stamp_to_seconds(stamp) -> float:
+def stamp_to_seconds(stamp: Any) -> float:
     """builtin_interfaces/Time -> float seconds (NaN for a zero stamp, i.e. never set)."""
     if stamp.sec == 0 and stamp.nanosec == 0:
         return math.nan
     return stamp.sec + stamp.nanosec * 1e-9
 
 
+@dataclass
+class _RunningGrasp:
+    """The Grasp goal in progress: its handle and the future its outcome completes."""
+
+    handle: ServerGoalHandle
+    done: Future               # result: the ControlOutputs of the step that finished it
+    started: float             # time.monotonic() at the start [s]
+
+
+@dataclass
+class _GripperMove:
+    """A GripperCommand goal in progress (checked by the control timer)."""
+
+    position: float            # target [rad]
+    tolerance: float           # [rad]
+    deadline: float            # node clock [s]
+    done: Future               # result: None
+    last: float = math.nan     # joint angle at the previous check [rad]
+    stalled: bool = False
+
+
 class GraspControllerNode(Node):
-    """The FORTE grasp controller node (see the module docstring)."""
+    """The FORTE grasp controller node (see the module docstring).
 
-    def __init__(self, **kwargs) -> None:
+    Parameters
+    ----------
+    **kwargs
+        Passed to :class:`rclpy.node.Node` (e.g. ``parameter_overrides``, ``context``).
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__('grasp_controller', **kwargs)
-        defaults = ControllerParams()
-        for name in CONTROLLER_FIELDS:
-            description, bounds = PARAMETER_DOCS[name]
-            value = getattr(defaults, name)
-            if isinstance(value, bool):
-                self.declare_parameter(name, value, ParameterDescriptor(description=description))
-            elif isinstance(value, str):
-                self.declare_parameter(name, value, ParameterDescriptor(description=description))
-            else:
-                self.declare_parameter(name, float(value),
-                                       _float_descriptor(description, bounds))
-        self.declare_parameter('control_rate', 20.0, _float_descriptor(
-            'rate of the control step and of arm velocity commands [Hz]', (1.0, 200.0),
-            read_only=True))
-        self.declare_parameter('feedback_rate', 10.0, _float_descriptor(
-            'rate of action feedback and grasp/state messages [Hz]', (0.1, 100.0),
-            read_only=True))
-        self.declare_parameter('step_on_perception', True, ParameterDescriptor(
-            description='also step the state machine on every tactile/state message (slip '
-                        'messages are always handled at once)'))
-        self.declare_parameter('arm_frame_id', 'base_link', ParameterDescriptor(
-            description="frame_id of arm/cmd_vel (the arm's base frame)"))
-        self.declare_parameter('gripper_frame_id', 'forte_base_link', ParameterDescriptor(
-            description='frame_id of grasp/state and gripper/command'))
-        self.declare_parameter('joint_names', ['forte_left_finger_joint',
-                                               'forte_right_finger_joint'],
-                               ParameterDescriptor(
-                                   description='joints whose mean position is the servo angle',
-                                   type=ParameterType.PARAMETER_STRING_ARRAY, read_only=True))
-        self.declare_parameter('use_receive_time', False, ParameterDescriptor(
-            description='judge data freshness by receive time instead of header stamps (for '
-                        'replays of recorded stamps without a /clock); read only',
-            read_only=True))
-        self.declare_parameter('dry_run', False, ParameterDescriptor(
-            description='compute everything but publish zero arm velocity and no servo '
-                        'commands (bag replay); refused while a grasp is active'))
-
-        self._lock = threading.RLock()
-        self._machine = GraspStateMachine(self._read_controller_params())
+        declare_parameters(self)
+        self._machine = GraspStateMachine(read_controller_params(self))
         self._perception: PerceptionInput | None = None
         self._slip_pending = False
         self._joint: JointInput | None = None
@@ -195,18 +128,22 @@ class GraspControllerNode(Node):
         self._last_outputs: ControlOutputs | None = None
         self._last_state_published: tuple | None = None
         self._was_active = False
-        self._done_event = threading.Event()
-        self._stopping = threading.Event()
-        self._execute_idle = threading.Event()
-        self._execute_idle.set()
-        self._goal_start = 0.0
-        self._active_goal = None
+        self._stopping = False
+        self._grasp: _RunningGrasp | None = None
+        self._gripper_move: _GripperMove | None = None
         self.counters = {'joint_states_without_joints': 0, 'tactile_invalid': 0,
                          'slip_reactions': 0}
         #: receive -> publish latency of slip tightenings [s] (perf_counter), newest last
         self.slip_reaction_latency: deque[float] = deque(maxlen=10000)
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._create_interfaces()
+        self._publish_state(force=True)
+        self.get_logger().info(
+            f'grasp controller ready (dry_run={self._dry_run}, control_msgs '
+            f'{"available" if GripperCommand is not None else "not installed"})')
 
+    def _create_interfaces(self) -> None:
+        """Publishers, subscriptions, timers, the reset service and the action servers."""
         reliable10 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                                 reliability=ReliabilityPolicy.RELIABLE)
         reliable50 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50,
@@ -214,79 +151,51 @@ class GraspControllerNode(Node):
         latched = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                              reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self._control_group = MutuallyExclusiveCallbackGroup()
-        self._action_group = ReentrantCallbackGroup()
         self._servo_pub = self.create_publisher(ServoCommand, 'gripper/command', reliable10)
         self._arm_pub = self.create_publisher(TwistStamped, 'arm/cmd_vel', reliable10)
         self._state_pub = self.create_publisher(GraspStateMsg, 'grasp/state', latched)
-        self.create_subscription(TactileState, 'tactile/state', self._on_tactile, reliable50,
-                                 callback_group=self._control_group)
-        self.create_subscription(JointState, 'joint_states', self._on_joint_state, reliable10,
-                                 callback_group=self._control_group)
-        self.create_service(ResetFault, 'grasp/reset_fault', self._on_reset_fault,
-                            callback_group=self._control_group)
-        control_rate = float(self.get_parameter('control_rate').value)
-        self._feedback_period = 1.0 / float(self.get_parameter('feedback_rate').value)
-        self._timer = self.create_timer(1.0 / control_rate, self._on_timer,
-                                        callback_group=self._control_group)
-        self._state_timer = self.create_timer(self._feedback_period, self._publish_state_timer,
-                                              callback_group=self._control_group)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics',
                                                       reliable10)
-        self._diagnostics_timer = self.create_timer(1.0, self._publish_diagnostics,
-                                                    callback_group=self._control_group)
+        self.create_subscription(TactileState, 'tactile/state', self._on_tactile, reliable50)
+        self.create_subscription(JointState, 'joint_states', self._on_joint_state, reliable10)
+        self.create_service(ResetFault, 'grasp/reset_fault', self._on_reset_fault)
+        control_period = 1.0 / float(self.get_parameter('control_rate').value)
+        feedback_period = 1.0 / float(self.get_parameter('feedback_rate').value)
+        self._timer = self.create_timer(control_period, self._on_timer)
+        self._feedback_timer = self.create_timer(feedback_period, self._on_feedback_timer)
+        self._diagnostics_timer = self.create_timer(1.0, self._publish_diagnostics)
+        # wakes the executor when prepare_shutdown (outside any callback) ends a goal
+        self._wake = self.create_guard_condition(lambda: None)
         self._action = ActionServer(
             self, Grasp, 'grasp', execute_callback=self._execute,
-            goal_callback=self._on_goal, cancel_callback=self._on_cancel,
-            callback_group=self._action_group)
+            goal_callback=self._on_goal, cancel_callback=self._on_cancel)
         self._gripper_action = None
-        if GripperCommand is not None:  # pragma: no cover - control_msgs not installed here
+        if GripperCommand is not None:
             self._gripper_action = ActionServer(
                 self, GripperCommand, 'gripper_cmd', execute_callback=self._execute_gripper,
-                goal_callback=self._on_gripper_goal, callback_group=self._action_group)
-        self._publish_state(force=True)
-        self.get_logger().info(
-            f'grasp controller ready (dry_run={self._dry_run}, control_msgs '
-            f'{"available" if GripperCommand is not None else "not installed"})')
+                goal_callback=self._on_gripper_goal)
 
     # -- parameters ----------------------------------------------------------------------
-    def _read_controller_params(self) -> ControllerParams:
-        values = {}
-        defaults = ControllerParams()
-        for name in CONTROLLER_FIELDS:
-            value = self.get_parameter(name).value
-            default = getattr(defaults, name)
-            values[name] = type(default)(value)
-        return ControllerParams(**values)
-
-    def _on_set_parameters(self, parameters) -> SetParametersResult:
-        with self._lock:
-            if not hasattr(self, '_machine'):
-                return SetParametersResult(successful=True)
-            changes = {}
-            defaults = ControllerParams()
-            for parameter in parameters:
-                if parameter.name in CONTROLLER_FIELDS:
-                    default = getattr(defaults, parameter.name)
-                    try:
-                        changes[parameter.name] = type(default)(parameter.value)
-                    except (TypeError, ValueError) as error:
-                        return SetParametersResult(successful=False,
-                                                   reason=f'{parameter.name}: {error}')
-                elif parameter.name == 'dry_run':
-                    if self._machine.state in ACTIVE_STATES:
-                        return SetParametersResult(
-                            successful=False, reason='dry_run cannot change during a grasp')
-            if changes:
-                ok, reason = self._machine.set_params(replace(self._machine.params, **changes))
-                if not ok:
-                    return SetParametersResult(successful=False, reason=reason)
-            for parameter in parameters:
-                if parameter.name == 'dry_run':
-                    self._dry_run = bool(parameter.value)
-                elif parameter.name == 'step_on_perception':
-                    self._step_on_perception = bool(parameter.value)
+    def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
+        if not hasattr(self, '_machine'):  # declarations in __init__
             return SetParametersResult(successful=True)
+        changes, error = controller_changes(parameters)
+        if error:
+            return SetParametersResult(successful=False, reason=error)
+        for parameter in parameters:
+            if parameter.name == 'dry_run' and self._machine.state in ACTIVE_STATES:
+                return SetParametersResult(
+                    successful=False, reason='dry_run cannot change during a grasp')
+        if changes:
+            ok, reason = self._machine.set_params(replace(self._machine.params, **changes))
+            if not ok:
+                return SetParametersResult(successful=False, reason=reason)
+        for parameter in parameters:
+            if parameter.name == 'dry_run':
+                self._dry_run = bool(parameter.value)
+            elif parameter.name == 'step_on_perception':
+                self._step_on_perception = bool(parameter.value)
+        return SetParametersResult(successful=True)
 
     # -- inputs --------------------------------------------------------------------------
     def _now(self) -> float:
@@ -294,26 +203,22 @@ class GraspControllerNode(Node):
 
     def _on_tactile(self, msg: TactileState) -> None:
         received = time.perf_counter()
-        with self._lock:
-            if not msg.data_valid:
-                self.counters['tactile_invalid'] += 1
-            self._slip_pending = self._slip_pending or bool(msg.slip)
-            stamp = self._now() if self._use_receive_time \
-                else stamp_to_seconds(msg.header.stamp)
-            self._perception = PerceptionInput(
-                stamp=stamp, force=float(msg.force),
-                force_valid=bool(msg.force_valid),
-                contact=(bool(msg.contact[0]), bool(msg.contact[1])),
-                slip=self._slip_pending, slip_active=bool(msg.slip_active),
-                data_valid=bool(msg.data_valid), filtered=tuple(float(v) for v in msg.filtered),
-                finger_variance=(float(msg.finger_variance[0]), float(msg.finger_variance[1])))
-            reacting = msg.slip and self._machine.state in (GraspState.LIFTING,
-                                                            GraspState.HOLDING)
-            if reacting or (self._step_on_perception and self._machine.state in ACTIVE_STATES):
-                outputs = self._step()
-                if outputs.slip_reacted:
-                    self.slip_reaction_latency.append(time.perf_counter() - received)
-                    self.counters['slip_reactions'] += 1
+        if not msg.data_valid:
+            self.counters['tactile_invalid'] += 1
+        self._slip_pending = self._slip_pending or bool(msg.slip)
+        stamp = self._now() if self._use_receive_time else stamp_to_seconds(msg.header.stamp)
+        self._perception = PerceptionInput(
+            stamp=stamp, force=float(msg.force), force_valid=bool(msg.force_valid),
+            contact=(bool(msg.contact[0]), bool(msg.contact[1])),
+            slip=self._slip_pending, slip_active=bool(msg.slip_active),
+            data_valid=bool(msg.data_valid), filtered=tuple(float(v) for v in msg.filtered),
+            finger_variance=(float(msg.finger_variance[0]), float(msg.finger_variance[1])))
+        reacting = msg.slip and self._machine.state in (GraspState.LIFTING, GraspState.HOLDING)
+        if reacting or (self._step_on_perception and self._machine.state in ACTIVE_STATES):
+            outputs = self._step()
+            if outputs.slip_reacted:
+                self.slip_reaction_latency.append(time.perf_counter() - received)
+                self.counters['slip_reactions'] += 1
 
     def _on_joint_state(self, msg: JointState) -> None:
         positions = [msg.position[i] for i, name in enumerate(msg.name)
@@ -321,18 +226,15 @@ class GraspControllerNode(Node):
         if not positions:
             self.counters['joint_states_without_joints'] += 1
             return
-        with self._lock:
-            stamp = self._now() if self._use_receive_time \
-                else stamp_to_seconds(msg.header.stamp)
-            self._joint = JointInput(stamp=stamp,
-                                     theta=float(sum(positions) / len(positions)))
+        stamp = self._now() if self._use_receive_time else stamp_to_seconds(msg.header.stamp)
+        self._joint = JointInput(stamp=stamp, theta=float(sum(positions) / len(positions)))
 
     def _inputs(self) -> ControlInputs:
         return ControlInputs(perception=self._perception, joint=self._joint)
 
     # -- stepping and outputs ------------------------------------------------------------
     def _step(self) -> ControlOutputs:
-        """Step the machine with the latest inputs and publish (lock held)."""
+        """Step the machine with the latest inputs and publish what changed."""
         outputs = self._machine.step(self._inputs(), self._now())
         self._consume_slip()
         self._apply(outputs)
@@ -344,13 +246,14 @@ class GraspControllerNode(Node):
             self._perception = replace(self._perception, slip=False)
 
     def _on_timer(self) -> None:
-        with self._lock:
-            outputs = self._step()
-            if self._machine.state in ACTIVE_STATES or outputs.finished:
-                self._publish_arm(outputs.arm_velocity)
+        outputs = self._step()
+        if self._machine.state in ACTIVE_STATES or outputs.finished:
+            self._publish_arm(outputs.arm_velocity)
+        if self._gripper_move is not None:
+            self._check_gripper_move(self._gripper_move)
 
     def _apply(self, outputs: ControlOutputs) -> None:
-        """Publish what changed: servo command at once, arm stop at once, state."""
+        """Publish what changed (servo command, arm stop, state); end a finished goal."""
         self._last_outputs = outputs
         active = outputs.state in ACTIVE_STATES
         if outputs.servo is not None and outputs.servo_changed and not self._dry_run:
@@ -364,8 +267,9 @@ class GraspControllerNode(Node):
         if self._was_active and not active:
             self._publish_arm(0.0)  # stop immediately, do not wait for the timer
         self._was_active = active
-        if outputs.finished:
-            self._done_event.set()
+        grasp = self._grasp
+        if grasp is not None and not grasp.done.done() and (outputs.finished or not active):
+            grasp.done.set_result(outputs)  # resumes the execute coroutine
         self._publish_state()
 
     def _publish_arm(self, velocity: float) -> None:
@@ -385,10 +289,8 @@ class GraspControllerNode(Node):
         msg.last_outcome = int(self._machine.last_outcome)
         if out is not None:
             msg.controller = int(out.controller)
-            msg.target_force = float(out.target_force) if math.isfinite(out.target_force) \
-                else 0.0
-            msg.estimated_force = float(out.estimated_force) \
-                if math.isfinite(out.estimated_force) else 0.0
+            msg.target_force = _finite_or_zero(out.target_force)
+            msg.estimated_force = _finite_or_zero(out.estimated_force)
             msg.force_valid = bool(out.force_valid)
             msg.servo_command = float(out.servo.position) if out.servo is not None else math.nan
             msg.tightening = float(out.tightening)
@@ -407,64 +309,76 @@ class GraspControllerNode(Node):
             self._state_pub.publish(msg)
             self._last_state_published = key
 
-    def _publish_state_timer(self) -> None:
-        with self._lock:
-            self._publish_state(force=True)
+    def _on_feedback_timer(self) -> None:
+        """At ``feedback_rate``: grasp/state, and feedback of the running Grasp goal."""
+        self._publish_state(force=True)
+        grasp, out = self._grasp, self._last_outputs
+        if grasp is None or grasp.done.done() or out is None:
+            return
+        perception = self._perception
+        feedback = Grasp.Feedback()
+        feedback.state = int(out.state)
+        feedback.estimated_force = _finite_or_zero(out.estimated_force)
+        feedback.slip = bool(perception.slip) if perception is not None else False
+        if perception is not None:
+            feedback.finger_variance = [float(v) for v in perception.finger_variance]
+        feedback.servo_command = float(out.servo.position) if out.servo is not None \
+            else math.nan
+        feedback.lift_height = float(out.lift_height)
+        feedback.slip_events = int(out.slip_events)
+        grasp.handle.publish_feedback(feedback)
 
     # -- diagnostics -----------------------------------------------------------------------
     def _publish_diagnostics(self) -> None:
-        with self._lock:
-            now = self._now()
-            state = self._machine.state
-            flags = self._machine.fault_flags
-            status = DiagnosticStatus()
-            status.name = f'{self.get_name()}: grasp controller'
-            status.hardware_id = 'forte'
-            if state == GraspState.FAULT:
-                status.level = DiagnosticStatus.ERROR
-            elif self._dry_run:
-                status.level = DiagnosticStatus.WARN
-            else:
-                status.level = DiagnosticStatus.OK
-            status.message = f'{state.name}' + (' (dry run)' if self._dry_run else '') + \
-                (f': {self._last_outputs.message}' if self._last_outputs is not None else '')
-            ages = {
-                'perception_age_s': now - self._perception.stamp
-                if self._perception is not None else math.nan,
-                'joint_state_age_s': now - self._joint.stamp
-                if self._joint is not None else math.nan,
-            }
-            latencies = sorted(self.slip_reaction_latency)
-            values = {
-                'state': state.name, 'fault_flags': str(int(flags)),
-                'last_outcome': self._machine.last_outcome.name,
-                **{k: f'{v:.4f}' for k, v in ages.items()},
-                **{k: str(v) for k, v in self.counters.items()},
-                'slip_reaction_latency_p50_ms': f'{latencies[len(latencies) // 2] * 1e3:.3f}'
-                if latencies else 'n/a',
-                'slip_reaction_latency_max_ms': f'{latencies[-1] * 1e3:.3f}'
-                if latencies else 'n/a',
-            }
-            status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
-            array = DiagnosticArray()
-            array.header.stamp = self.get_clock().now().to_msg()
-            array.status = [status]
+        now = self._now()
+        state = self._machine.state
+        status = DiagnosticStatus()
+        status.name = f'{self.get_name()}: grasp controller'
+        status.hardware_id = 'forte'
+        if state == GraspState.FAULT:
+            status.level = DiagnosticStatus.ERROR
+        elif self._dry_run:
+            status.level = DiagnosticStatus.WARN
+        else:
+            status.level = DiagnosticStatus.OK
+        status.message = f'{state.name}' + (' (dry run)' if self._dry_run else '') + \
+            (f': {self._last_outputs.message}' if self._last_outputs is not None else '')
+        ages = {
+            'perception_age_s': now - self._perception.stamp
+            if self._perception is not None else math.nan,
+            'joint_state_age_s': now - self._joint.stamp if self._joint is not None else math.nan,
+        }
+        latencies = sorted(self.slip_reaction_latency)
+        values = {
+            'state': state.name, 'fault_flags': str(int(self._machine.fault_flags)),
+            'last_outcome': self._machine.last_outcome.name,
+            **{k: f'{v:.4f}' for k, v in ages.items()},
+            **{k: str(v) for k, v in self.counters.items()},
+            'slip_reaction_latency_p50_ms': f'{latencies[len(latencies) // 2] * 1e3:.3f}'
+            if latencies else 'n/a',
+            'slip_reaction_latency_max_ms': f'{latencies[-1] * 1e3:.3f}'
+            if latencies else 'n/a',
+        }
+        status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        array.status = [status]
         self._diagnostics_pub.publish(array)
 
     # -- reset service -------------------------------------------------------------------
-    def _on_reset_fault(self, request, response):
-        with self._lock:
-            ok, message, cleared = self._machine.reset_fault(self._now())
-            response.success = bool(ok)
-            response.message = message
-            response.cleared_flags = int(cleared)
-            self._last_outputs = self._machine.step(self._inputs(), self._now())
-            self._publish_state(force=True)
+    def _on_reset_fault(self, request: ResetFault.Request,
+                        response: ResetFault.Response) -> ResetFault.Response:
+        ok, message, cleared = self._machine.reset_fault(self._now())
+        response.success = bool(ok)
+        response.message = message
+        response.cleared_flags = int(cleared)
+        self._last_outputs = self._machine.step(self._inputs(), self._now())
+        self._publish_state(force=True)
         return response
 
     # -- Grasp action --------------------------------------------------------------------
     @staticmethod
-    def goal_from_msg(request) -> GraspGoal:
+    def goal_from_msg(request: Grasp.Goal) -> GraspGoal:
         """forte_msgs Grasp goal -> :class:`GraspGoal`."""
         return GraspGoal(
             controller=request.controller, initial_force=request.initial_force,
@@ -473,167 +387,175 @@ class GraspControllerNode(Node):
             max_force=request.max_force, timeout=request.timeout,
             release_after=request.release_after)
 
-    def _on_goal(self, request) -> GoalResponse:
-        with self._lock:
-            if self._active_goal is not None or self._machine.state in ACTIVE_STATES:
-                self.get_logger().warning('goal rejected: a grasp is in progress')
-                return GoalResponse.REJECT
-            if self._machine.state == GraspState.FAULT:
-                self.get_logger().warning('goal rejected: fault latched, call grasp/reset_fault')
-                return GoalResponse.REJECT
-            params, reason = self._machine.effective_params(self.goal_from_msg(request))
-            if params is None:
-                self.get_logger().warning(f'goal rejected: {reason}')
-                return GoalResponse.REJECT
-            return GoalResponse.ACCEPT
+    def _on_goal(self, request: Grasp.Goal) -> GoalResponse:
+        if self._stopping:
+            return GoalResponse.REJECT
+        if self._grasp is not None or self._machine.state in ACTIVE_STATES:
+            self.get_logger().warning('goal rejected: a grasp is in progress')
+            return GoalResponse.REJECT
+        if self._machine.state == GraspState.FAULT:
+            self.get_logger().warning('goal rejected: fault latched, call grasp/reset_fault')
+            return GoalResponse.REJECT
+        params, reason = self._machine.effective_params(self.goal_from_msg(request))
+        if params is None:
+            self.get_logger().warning(f'goal rejected: {reason}')
+            return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
 
-    def _on_cancel(self, goal_handle) -> CancelResponse:
-        with self._lock:
-            if goal_handle is self._active_goal:
-                outputs = self._machine.cancel(self._now())
-                self._apply(outputs)
-                self._publish_arm(0.0)
+    def _on_cancel(self, goal_handle: ServerGoalHandle) -> CancelResponse:
+        """Cancel the running grasp at once: arm stopped, grip held, its future completed.
+
+        The action server marks the goal CANCELING right after this returns, before the
+        execute coroutine resumes, so that coroutine ends the goal as canceled.
+        """
+        if self._grasp is not None and goal_handle is self._grasp.handle:
+            self._apply(self._machine.cancel(self._now()))
+            self._publish_arm(0.0)
         return CancelResponse.ACCEPT
 
-    def prepare_shutdown(self, timeout: float = 3.0) -> None:
+    def prepare_shutdown(self) -> None:
         """Stop a running grasp (arm stopped, grip held) and end its goal (node runner).
 
-        Called while the context is still valid, before the node is destroyed: the execute
-        callback aborts its goal and returns, so no executor thread outlives the node.
+        Called by :func:`forte_ros.run_node` after spinning stopped, while the context is
+        still valid: the machine is canceled and the goal's future completed here; the
+        runner's flush spin then resumes the execute coroutine, which aborts the goal with
+        outcome CANCELED and sends the result. A GripperCommand goal is ended the same way.
         """
-        self._stopping.set()
-        with self._lock:
-            if self._active_goal is not None:
-                self._apply(self._machine.cancel(self._now()))
-                self._publish_arm(0.0)
-            self._done_event.set()
-        if not self._execute_idle.wait(timeout):
-            self.get_logger().warning(f'grasp goal still running after {timeout} s')
+        self._stopping = True
+        if self._grasp is not None:
+            self._apply(self._machine.cancel(self._now()))
+            self._publish_arm(0.0)
+            if not self._grasp.done.done():
+                self._grasp.done.set_result(self._last_outputs)
+        if self._gripper_move is not None and not self._gripper_move.done.done():
+            self._gripper_move.done.set_result(None)
+        self._wake.trigger()
 
-    def _execute(self, goal_handle):
-        self._execute_idle.clear()
-        try:
-            return self._execute_goal(goal_handle)
-        finally:
-            self._execute_idle.set()
-
-    def _execute_goal(self, goal_handle):
+    async def _execute(self, goal_handle: ServerGoalHandle) -> Grasp.Result:
+        """Run one Grasp goal: start the machine, await its outcome, end the goal."""
         goal = self.goal_from_msg(goal_handle.request)
-        with self._lock:
-            self._done_event.clear()
-            ok, reason = self._machine.start(goal, self._now(), self._inputs())
-            if ok:
-                self._active_goal = goal_handle
-                self._goal_start = time.monotonic()
-                self._apply(self._machine.step(self._inputs(), self._now()))
+        if goal_handle.is_cancel_requested or self._stopping:
+            if goal_handle.is_cancel_requested:
+                goal_handle.canceled()
+            else:
+                goal_handle.abort()
+            return self._result(Outcome.CANCELED, 'canceled before the grasp started', 0.0)
+        ok, reason = self._machine.start(goal, self._now(), self._inputs())
         if not ok:
             self.get_logger().warning(f'grasp refused: {reason}')
             goal_handle.abort()
             return self._result(Outcome.FAULT, f'refused: {reason}', 0.0)
+        grasp = _RunningGrasp(goal_handle, Future(), time.monotonic())
+        self._grasp = grasp
         self.get_logger().info(f'grasp started ({Controller(goal.controller).name})')
-        feedback = Grasp.Feedback()
-        while not self._done_event.wait(self._feedback_period):
-            if self._stopping.is_set() or not self.context.ok():
-                break
-            with self._lock:
-                out = self._last_outputs
-                perception = self._perception
-            if out is None:
-                continue
-            feedback.state = int(out.state)
-            feedback.estimated_force = float(out.estimated_force) \
-                if math.isfinite(out.estimated_force) else 0.0
-            feedback.slip = bool(perception.slip) if perception is not None else False
-            if perception is not None:
-                feedback.finger_variance = [float(v) for v in perception.finger_variance]
-            feedback.servo_command = float(out.servo.position) if out.servo is not None \
-                else math.nan
-            feedback.lift_height = float(out.lift_height)
-            feedback.slip_events = int(out.slip_events)
-            goal_handle.publish_feedback(feedback)
-        with self._lock:
-            out = self._last_outputs
-            self._active_goal = None
-            duration = time.monotonic() - self._goal_start
+        self._apply(self._machine.step(self._inputs(), self._now()))
+        try:
+            out: ControlOutputs | None = await grasp.done
+        finally:
+            self._grasp = None
+        duration = time.monotonic() - grasp.started
         outcome = Outcome(int(out.outcome)) if out is not None else Outcome.FAULT
-        if outcome == Outcome.CANCELED and not self._stopping.is_set():
-            # the server marks the goal CANCELING right after _on_cancel returns
-            deadline = time.monotonic() + 2.0
-            while not goal_handle.is_cancel_requested and time.monotonic() < deadline:
-                time.sleep(0.002)
+        message = out.message if out is not None else 'no outputs'
         if outcome == Outcome.CANCELED and goal_handle.is_cancel_requested:
             goal_handle.canceled()
         elif outcome == Outcome.LIFTED:
             goal_handle.succeed()
         else:
             goal_handle.abort()
-        self.get_logger().info(f'grasp finished: {outcome.name}: {out.message}')
-        return self._result(outcome, out.message, duration, out)
+        self.get_logger().info(f'grasp finished: {outcome.name}: {message}')
+        return self._result(outcome, message, duration, out)
 
     @staticmethod
     def _result(outcome: Outcome, message: str, duration: float,
-                out: ControlOutputs | None = None):
+                out: ControlOutputs | None = None) -> Grasp.Result:
         result = Grasp.Result()
         result.outcome = int(outcome)
         result.message = message
         result.duration = float(duration)
         if out is not None:
-            result.final_force = float(out.estimated_force) \
-                if math.isfinite(out.estimated_force) else 0.0
+            result.final_force = _finite_or_zero(out.estimated_force)
             result.lift_height = float(out.lift_height)
             result.slip_events = int(out.slip_events)
             result.tightening = float(out.tightening)
         return result
 
     # -- control_msgs/GripperCommand (MoveIt), only where installed ----------------------
-    def _on_gripper_goal(self, request) -> GoalResponse:  # pragma: no cover
-        with self._lock:
-            if self._machine.state in ACTIVE_STATES or self._machine.state == GraspState.FAULT:
-                return GoalResponse.REJECT
-            position = float(request.command.position)
-            params = self._machine.params
-            if not math.isfinite(position) or not params.min_angle <= position <= math.pi:
-                return GoalResponse.REJECT
+    def _on_gripper_goal(self, request: Any) -> GoalResponse:
+        if self._stopping or self._gripper_move is not None:
+            return GoalResponse.REJECT
+        if self._machine.state in ACTIVE_STATES or self._machine.state == GraspState.FAULT:
+            return GoalResponse.REJECT
+        position = float(request.command.position)
+        if not math.isfinite(position) or not self._machine.params.min_angle <= position \
+                <= math.pi:
+            return GoalResponse.REJECT
         return GoalResponse.ACCEPT
 
-    def _execute_gripper(self, goal_handle):  # pragma: no cover
-        """Move the servo to ``command.position`` [rad]; ``max_effort`` [A] caps the current."""
+    async def _execute_gripper(self, goal_handle: ServerGoalHandle) -> Any:
+        """Move the servo to ``command.position`` [rad]; ``max_effort`` [A] caps the current.
+
+        Ends when the joint is within ``release_tolerance`` of the position, or after
+        ``release_timeout`` (checked by the control timer; ``stalled`` when the joint no
+        longer moved between two checks).
+        """
         params = self._machine.params
         position = float(goal_handle.request.command.position)
         effort = float(goal_handle.request.command.max_effort)
-        current = min(effort, params.max_current) if effort > 0.0 else params.max_current
         if not self._dry_run:
             msg = ServoCommand()
             msg.header.stamp = self.get_clock().now().to_msg()
+            msg.header.frame_id = str(self.get_parameter('gripper_frame_id').value)
             msg.position = position
-            msg.max_current = current
+            msg.max_current = min(effort, params.max_current) if effort > 0.0 \
+                else params.max_current
             msg.profile_velocity = params.release_speed
             self._servo_pub.publish(msg)
-        deadline = time.monotonic() + params.release_timeout
+        move = _GripperMove(position, params.release_tolerance,
+                            self._now() + params.release_timeout, Future())
+        self._gripper_move = move
+        self._check_gripper_move(move)
+        try:
+            await move.done
+        finally:
+            self._gripper_move = None
         result = GripperCommand.Result()
-        last = math.nan
-        stalled = False
-        while time.monotonic() < deadline:
-            with self._lock:
-                joint = self._joint
-            if joint is not None:
-                if abs(joint.theta - position) <= params.release_tolerance:
-                    break
-                stalled = abs(joint.theta - last) < 1e-4
-                last = joint.theta
-            time.sleep(0.05)
-        result.position = float(last) if math.isfinite(last) else position
-        result.reached_goal = math.isfinite(last) and abs(last - position) \
-            <= params.release_tolerance
-        result.stalled = bool(stalled and not result.reached_goal)
-        goal_handle.succeed()
+        result.position = float(move.last) if math.isfinite(move.last) else position
+        result.reached_goal = bool(math.isfinite(move.last)
+                                   and abs(move.last - position) <= move.tolerance)
+        result.stalled = bool(move.stalled and not result.reached_goal)
+        if self._stopping:
+            goal_handle.abort()
+        else:
+            goal_handle.succeed()
         return result
+
+    def _check_gripper_move(self, move: _GripperMove) -> None:
+        """Complete the move's future once reached, or at its deadline (control timer)."""
+        if move.done.done():
+            return
+        joint = self._joint
+        if joint is not None:
+            move.stalled = abs(joint.theta - move.last) < 1e-4
+            move.last = joint.theta
+            if abs(joint.theta - move.position) <= move.tolerance:
+                move.done.set_result(None)
+                return
+        if self._now() >= move.deadline:
+            move.done.set_result(None)
+
+
+def _finite_or_zero(value: float) -> float:
+    return float(value) if math.isfinite(value) else 0.0
+
+
+def single_threaded_executor(context: Context) -> SingleThreadedExecutor:
+    """Executor factory of :func:`main`: every callback of the node on one thread."""
+    return SingleThreadedExecutor(context=context)
 
 
 def main(args: list[str] | None = None) -> int:
-    """Run the grasp controller node in a multi-threaded executor until SIGINT/SIGTERM."""
-    return run_node(GraspControllerNode, args, executor_factory=lambda context:
-                    MultiThreadedExecutor(num_threads=3, context=context))
+    """Run the grasp controller node in a single-threaded executor until SIGINT/SIGTERM."""
+    return run_node(GraspControllerNode, args, executor_factory=single_threaded_executor)
 
 
 if __name__ == '__main__':

@@ -33,6 +33,19 @@ import math
 from dataclasses import dataclass, fields, replace
 from enum import IntEnum, IntFlag
 
+from forte_control.parameters import (  # noqa: F401 - HARD_MAX_* re-exported
+    HARD_MAX_ANGLE,
+    HARD_MAX_CURRENT,
+    HARD_MAX_FORCE,
+    HARD_MAX_FRESHNESS,
+    HARD_MAX_LIFT_DISTANCE,
+    HARD_MAX_LIFT_SPEED,
+    HARD_MAX_SERVO_SPEED,
+    HARD_MAX_SLIP_INCREMENT,
+    HARD_MAX_TIGHTENING,
+    range_problems,
+)
+
 # ---------------------------------------------------------------------------------------
 # Constants mirrored from forte_msgs (tests check they equal the message constants).
 
@@ -91,16 +104,8 @@ ACTIVE_STATES = frozenset({GraspState.CLOSING, GraspState.LOADING, GraspState.LI
 #: The paper's slip response, 0.88 degree [rad].
 PAPER_SLIP_INCREMENT = math.radians(0.88)
 
-# Hard limits no parameter may exceed (refused by validation).
-HARD_MAX_FORCE = 10.0            # [N], above the force model's 0-8 N range
-HARD_MAX_LIFT_SPEED = 0.05       # [m/s]
-HARD_MAX_LIFT_DISTANCE = 0.5     # [m]
-HARD_MAX_SERVO_SPEED = 3.0       # [rad/s]
-HARD_MAX_CURRENT = 2.3           # [A], XM430-W350 stall current
-HARD_MAX_SLIP_INCREMENT = math.radians(5.0)  # [rad]
-HARD_MAX_TIGHTENING = 0.6        # [rad]
-HARD_MAX_FRESHNESS = 1.0         # [s]
-HARD_MAX_ANGLE = math.pi         # [rad]
+# Hard limits no parameter may exceed (HARD_MAX_*): defined with the parameter table in
+# forte_control.parameters and imported above, so they stay importable from here.
 
 
 # ---------------------------------------------------------------------------------------
@@ -161,7 +166,13 @@ class ControllerParams:
     max_current: float = 1.0                # servo current limit sent with commands [A]
 
     def problems(self) -> list[str]:
-        """Reasons why these parameters are unsafe or inconsistent (empty when valid)."""
+        """Reasons why these parameters are unsafe or inconsistent (empty when valid).
+
+        Ranges and choices come from :data:`forte_control.parameters.CONTROLLER_PARAMETERS`
+        (inclusive bounds, the same as the node's parameter descriptors); a value outside
+        is reported as ``'<name>=<value> outside [<low>, <high>] <unit>'``. Relations
+        between parameters are checked only when every value is in its range.
+        """
         out: list[str] = []
         for item in fields(self):
             value = getattr(self, item.name)
@@ -170,51 +181,8 @@ class ControllerParams:
         if out:
             return out
 
-        def check(name: str, low: float, high: float, low_open: bool = True) -> None:
-            value = getattr(self, name)
-            ok = (value > low if low_open else value >= low) and value <= high
-            if not ok:
-                bracket = '(' if low_open else '['
-                out.append(f'{name}={value} outside {bracket}{low}, {high}]')
-
-        check('closing_speed', 0.0, HARD_MAX_SERVO_SPEED)
-        check('loading_speed', 0.0, HARD_MAX_SERVO_SPEED)
-        check('on_off_closing_speed', 0.0, HARD_MAX_SERVO_SPEED)
-        check('slip_speed', 0.0, HARD_MAX_SERVO_SPEED)
-        check('release_speed', 0.0, HARD_MAX_SERVO_SPEED)
-        check('min_angle', 0.0, HARD_MAX_ANGLE, low_open=False)
-        check('open_angle', 0.0, HARD_MAX_ANGLE)
-        check('max_force', 0.0, HARD_MAX_FORCE)
-        check('force_limit_confirm', 0.0, 0.2, low_open=False)
-        check('initial_force', 0.0, HARD_MAX_FORCE)
-        check('max_lift_speed', 0.0, HARD_MAX_LIFT_SPEED)
-        check('lift_speed', 0.0, HARD_MAX_LIFT_SPEED)
-        check('max_lift_distance', 0.0, HARD_MAX_LIFT_DISTANCE)
-        check('lift_distance', 0.0, HARD_MAX_LIFT_DISTANCE)
-        check('slip_increment', 0.0, HARD_MAX_SLIP_INCREMENT)
-        check('max_tightening', 0.0, HARD_MAX_TIGHTENING, low_open=False)
-        check('slip_refractory', 0.0, 10.0, low_open=False)
-        check('perception_timeout', 0.0, HARD_MAX_FRESHNESS)
-        check('joint_state_timeout', 0.0, HARD_MAX_FRESHNESS)
-        check('invalid_input_timeout', 0.0, 5.0, low_open=False)
-        check('invalid_force_timeout', 0.0, 5.0, low_open=False)
-        check('timeout', 0.0, 3600.0)
-        check('hold_duration', 0.0, 600.0, low_open=False)
-        check('no_contact_settle', 0.0, 10.0, low_open=False)
-        check('on_off_settle', 0.0, 10.0, low_open=False)
-        check('release_tolerance', 0.0, 1.0)
-        check('release_timeout', 0.0, 60.0)
-        check('drop_force_fraction', 0.0, 1.0, low_open=False)
-        check('drop_level_fraction', 0.0, 1.0, low_open=False)
-        check('drop_min_reference_force', 0.0, HARD_MAX_FORCE, low_open=False)
-        check('drop_min_reference_level', 0.0, 2.0, low_open=False)
-        check('drop_confirm_time', 0.0, 10.0, low_open=False)
-        check('max_current', 0.0, HARD_MAX_CURRENT)
-        if self.contact_mode not in ('either', 'both'):
-            out.append(f"contact_mode must be 'either' or 'both', got {self.contact_mode!r}")
-        if self.initial_force_mode not in ('relative', 'absolute'):
-            out.append("initial_force_mode must be 'relative' or 'absolute', "
-                       f'got {self.initial_force_mode!r}')
+        # ranges and choices: the table of forte_control.parameters (the node's descriptors)
+        out.extend(range_problems({item.name: getattr(self, item.name) for item in fields(self)}))
         if out:
             return out
         if self.initial_force >= self.max_force:

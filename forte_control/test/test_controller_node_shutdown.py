@@ -1,10 +1,13 @@
 """grasp_controller_node, as its real executable, stops cleanly on SIGINT and SIGTERM, also
 in the middle of a grasp: the running goal is ended (arm stopped, grip held) before its
-multi-threaded executor is stopped, the process exits with code 0 within a few seconds and
-prints no traceback."""
+executor is stopped, the process exits with code 0 within a few seconds and prints no
+traceback."""
 from __future__ import annotations
 
+import os
+import shutil
 import signal
+from pathlib import Path
 
 import pytest
 from geometry_msgs.msg import TwistStamped
@@ -22,6 +25,19 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
+def executable(package: str, name: str) -> str:
+    """The node executable as ``ros2 run`` finds it: on PATH, else ``<prefix>/lib/<package>``
+    of the prefix on AMENT_PREFIX_PATH that holds it (colcon installs it there)."""
+    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        candidate = Path(prefix, 'lib', package, name)
+        if prefix and candidate.is_file() and os.access(candidate, os.X_OK):
+            return str(candidate)
+    return shutil.which(name) or name
+
+
+CONTROLLER = executable('forte_control', 'grasp_controller_node')
+
+
 def check_clean_stop(process: NodeProcess, signum: int) -> None:
     code, elapsed = process.stop(signum, timeout=15.0)
     name = signal.Signals(signum).name
@@ -36,7 +52,7 @@ def check_clean_stop(process: NodeProcess, signum: int) -> None:
 def test_idle_controller_stops_cleanly(signum):
     with Probe('controller_shutdown_probe') as probe:
         probe.count(GraspState, 'grasp/state', LATCHED)
-        with NodeProcess(['grasp_controller_node']) as process:
+        with NodeProcess([CONTROLLER]) as process:
             assert wait_until(lambda: probe.counts['grasp/state'] >= 5, 40.0), process.output
             check_clean_stop(process, signum)
 
@@ -57,7 +73,7 @@ def test_a_running_grasp_is_ended_before_the_process_exits():
                                        lambda m: arm.append(m.twist.linear.z), RELIABLE)
         client = ActionClient(probe.node, Grasp, 'grasp')
         feedback: list = []
-        with NodeProcess(['grasp_controller_node']) as process:
+        with NodeProcess([CONTROLLER]) as process:
             assert client.wait_for_server(timeout_sec=40.0), process.output
             goal = Grasp.Goal(controller=Grasp.Goal.ON_OFF, timeout=60.0)
             sent = client.send_goal_async(goal, feedback_callback=feedback.append)

@@ -1,26 +1,33 @@
 """rclpy tests of the grasp controller node: real nodes exchanging real messages over DDS.
 
-A fake gripper world node behaves like the perception node + gripper driver + arm: it
-publishes TactileState and JointState at 100 Hz, moves its servo towards the commanded
-angle, integrates the arm velocity, senses contact / force once the fingers close on an
-object, and can inject slip, drop the object or stop publishing (stale data). An action
+A fake gripper world node behaves like the simulator + perception node + gripper driver +
+arm: every tick it advances simulated time by 10 ms and publishes it on ``/clock``, moves its
+servo towards the commanded angle, integrates the arm velocity, senses contact / force once
+the fingers close on an object and publishes TactileState and JointState stamped with the
+simulated time; it can inject slip, drop the object or stop publishing (stale data). The
+controller runs on that clock (``use_sim_time``) with its default freshness bounds, so a
+slow or loaded machine slows the test instead of making its data look stale. An action
 client node sends Grasp goals.
+
+The three nodes share one SingleThreadedExecutor, spun by the test itself between its
+checks (``Harness.spin_until``): one thread runs every callback, as in the controller's
+``main``, and waits are measured in simulated time.
 """
 from __future__ import annotations
 
-import os
-import threading
 import time
+from collections.abc import Callable
 
 import pytest
 import rclpy
-import rclpy.duration
+import rclpy.time
 from geometry_msgs.msg import TwistStamped
 from rclpy.action import ActionClient
-from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from forte_control.grasp_controller_node import GraspControllerNode
@@ -37,36 +44,25 @@ RELIABLE50 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50,
 LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                      reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED = 4, 5, 6  # action_msgs/msg/GoalStatus
 
 #: Fast grasps for tests: close at 1 rad/s from 0.7 rad to contact at 0.5 rad, lift 5 mm.
+#: The freshness bounds are the controller's defaults (0.1 / 0.2 s, in simulated time).
 FAST = {
     'closing_speed': 1.0, 'loading_speed': 0.5, 'lift_speed': 0.02, 'max_lift_speed': 0.02,
     'lift_distance': 0.005, 'hold_duration': 0.3, 'arm_frame_id': 'panda_link0',
-    # generous bounds: three executors share one GIL here and the CI machine has 2 loaded cores
-    'perception_timeout': 1.0, 'joint_state_timeout': 1.0,
+    'use_sim_time': True,
 }
-
-#: Every test here runs the controller, the fake world and the client in ONE
-#: process. There, rclpy's MultiThreadedExecutor (which the controller needs for its blocking
-#: action) re-dispatches ready entities in a loop (measured: ~6000 dispatches in 3 s for ~300
-#: messages; ros2/rclpy#1223, #1452) and starves the fake world's 100 Hz timer through the
-#: GIL, so its data goes stale and the grasp faults at random (1-5 of these tests per run on
-#: this machine since 05:00, none before). In production the controller has its own process
-#: and the Grasp action is exercised over real DDS by forte_bringup/test/test_bringup.py (sim
-#: graph lifts the soda can) and test_demo.py. Set FORTE_RUN_EXECUTOR_SENSITIVE=1 to run them.
-executor_sensitive = pytest.mark.skipif(
-    os.environ.get('FORTE_RUN_EXECUTOR_SENSITIVE') != '1',
-    reason='quarantined: rclpy MultiThreadedExecutor re-dispatch starves the in-process fake '
-           'world (ros2/rclpy#1223); run with FORTE_RUN_EXECUTOR_SENSITIVE=1')
-pytestmark = executor_sensitive
+TICK = 0.01          # simulated time per world tick (one perception update) [s]
+WALL_LIMIT = 120.0   # a wait that lasts this long in wall time means a hang [s]
 
 
 class FakeWorld(Node):
-    """Stands in for perception + gripper driver + arm (publishes like the real nodes)."""
+    """Stands in for the simulator, perception, gripper driver and arm."""
 
     def __init__(self) -> None:
         super().__init__('fake_world')
-        self.lock = threading.Lock()
+        self.sim_time = 100.0          # simulated time [s], published on /clock
         self.theta = 0.7               # servo angle [rad]
         self.command = None            # latest commanded angle [rad]
         self.servo_speed = 2.0         # [rad/s]
@@ -78,73 +74,78 @@ class FakeWorld(Node):
         self.publish_perception = True
         self.publish_joints = True
         self.slip_next = False
-        self.servo_log: list[tuple[float, ServoCommand]] = []
+        self.servo_log: list[tuple[float, ServoCommand]] = []   # (simulated time, command)
         self.arm_log: list[tuple[float, TwistStamped]] = []
         self.states: list[GraspStateMsg] = []
         self.sample_index = 0
         self.stamp_offset = 0.0        # shift of the header stamps [s] (recorded data)
+        self.clock_pub = self.create_publisher(Clock, '/clock', RELIABLE10)
         self.tactile_pub = self.create_publisher(TactileState, 'tactile/state', RELIABLE50)
         self.joint_pub = self.create_publisher(JointState, 'joint_states', RELIABLE10)
         self.create_subscription(ServoCommand, 'gripper/command', self.on_servo, RELIABLE10)
         self.create_subscription(TwistStamped, 'arm/cmd_vel', self.on_arm, RELIABLE10)
         self.create_subscription(GraspStateMsg, 'grasp/state', self.states.append, LATCHED)
-        self.last_tick = time.monotonic()
-        self.create_timer(0.01, self.tick)
+        self.create_timer(TICK, self.tick)  # wall-clock timer: simulated time = ticks
+
+    @property
+    def state(self) -> int | None:
+        """The controller's latest published grasp state (None before the first)."""
+        return self.states[-1].state if self.states else None
 
     def on_servo(self, msg: ServoCommand) -> None:
-        with self.lock:
-            self.command = msg.position
-            self.servo_log.append((time.monotonic(), msg))
+        self.command = msg.position
+        self.servo_log.append((self.sim_time, msg))
 
     def on_arm(self, msg: TwistStamped) -> None:
-        with self.lock:
-            self.arm_velocity = msg.twist.linear.z
-            self.arm_log.append((time.monotonic(), msg))
+        self.arm_velocity = msg.twist.linear.z
+        self.arm_log.append((self.sim_time, msg))
 
     def tick(self) -> None:
-        now = time.monotonic()
-        with self.lock:
-            dt = now - self.last_tick
-            self.last_tick = now
-            if self.command is not None:
-                step = max(-self.servo_speed * dt, min(self.servo_speed * dt,
-                                                       self.command - self.theta))
-                self.theta += step
-            if self.object_present:  # the object blocks the fingers a little beyond contact
-                self.theta = max(self.theta, self.contact_angle - 0.2)
-            self.lift += self.arm_velocity * dt
-            squeeze = self.contact_angle - self.theta
-            in_contact = self.object_present and squeeze > 0.0
-            stamp = (self.get_clock().now()
-                     - rclpy.duration.Duration(seconds=self.stamp_offset)).to_msg()
-            self.sample_index += 20
-            if self.publish_perception:
-                msg = TactileState()
-                msg.header.stamp = stamp
-                msg.header.frame_id = 'forte_base_link'
-                msg.sample_index = self.sample_index
-                msg.force = self.stiffness * squeeze if in_contact else 0.0
-                msg.force_valid = True
-                msg.contact = [in_contact, in_contact]
-                msg.slip = self.slip_next
-                self.slip_next = False
-                msg.slip_active = True
-                msg.data_valid = True
-                msg.tared = True
-                msg.filtered = [0.05 * squeeze if in_contact else 0.0] * 6
-                self.tactile_pub.publish(msg)
-            if self.publish_joints:
-                joints = JointState()
-                joints.header.stamp = stamp
-                joints.name = ['forte_left_finger_joint', 'forte_right_finger_joint']
-                joints.position = [self.theta, self.theta]
-                self.joint_pub.publish(joints)
+        self.sim_time += TICK
+        self.clock_pub.publish(Clock(clock=to_time(self.sim_time)))
+        if self.command is not None:
+            step = max(-self.servo_speed * TICK, min(self.servo_speed * TICK,
+                                                     self.command - self.theta))
+            self.theta += step
+        if self.object_present:  # the object blocks the fingers a little beyond contact
+            self.theta = max(self.theta, self.contact_angle - 0.2)
+        self.lift += self.arm_velocity * TICK
+        squeeze = self.contact_angle - self.theta
+        in_contact = self.object_present and squeeze > 0.0
+        stamp = to_time(self.sim_time - self.stamp_offset)
+        self.sample_index += 20
+        if self.publish_perception:
+            msg = TactileState()
+            msg.header.stamp = stamp
+            msg.header.frame_id = 'forte_base_link'
+            msg.sample_index = self.sample_index
+            msg.force = self.stiffness * squeeze if in_contact else 0.0
+            msg.force_valid = True
+            msg.contact = [in_contact, in_contact]
+            msg.slip = self.slip_next
+            self.slip_next = False
+            msg.slip_active = True
+            msg.data_valid = True
+            msg.tared = True
+            msg.filtered = [0.05 * squeeze if in_contact else 0.0] * 6
+            self.tactile_pub.publish(msg)
+        if self.publish_joints:
+            joints = JointState()
+            joints.header.stamp = stamp
+            joints.name = ['forte_left_finger_joint', 'forte_right_finger_joint']
+            joints.position = [self.theta, self.theta]
+            self.joint_pub.publish(joints)
+
+
+def to_time(seconds: float):
+    """Float seconds -> builtin_interfaces/Time."""
+    return rclpy.time.Time(nanoseconds=round(seconds * 1e9)).to_msg()
 
 
 class Harness:
-    """Controller node + fake world + client node, each executor spinning in a thread."""
+    """Controller node + fake world + client node on one SingleThreadedExecutor."""
 
-    def __init__(self, **overrides) -> None:
+    def __init__(self, **overrides: object) -> None:
         params = dict(FAST, **overrides)
         self.controller = GraspControllerNode(parameter_overrides=[
             Parameter(name, value=value) for name, value in params.items()])
@@ -152,65 +153,67 @@ class Harness:
         self.client_node = Node('grasp_test_client')
         self.client = ActionClient(self.client_node, Grasp, 'grasp')
         self.reset_client = self.client_node.create_client(ResetFault, 'grasp/reset_fault')
-        self.executors = []
-        self.threads = []
-        # The controller runs as in its main() (a multi-threaded executor, so a running goal
-        # never blocks its callbacks). The world and the client have no blocking callbacks and
-        # use single-threaded executors: rclpy's MultiThreadedExecutor re-submits ready
-        # entities faster than one worker drains them (ros2/rclpy#1223, #1452), which starved
-        # the world's 100 Hz timer here and made its data look stale.
-        for node, threads in ((self.controller, 3), (self.world, 1), (self.client_node, 1)):
-            executor = (MultiThreadedExecutor(num_threads=threads) if threads > 1
-                        else SingleThreadedExecutor())
-            executor.add_node(node)
-            thread = threading.Thread(target=executor.spin, daemon=True)
-            thread.start()
-            self.executors.append(executor)
-            self.threads.append(thread)
-        assert self.client.wait_for_server(timeout_sec=10.0)
-        assert self.reset_client.wait_for_service(timeout_sec=10.0)
-        assert wait_for(lambda: self.controller.count_subscribers('arm/cmd_vel') > 0
-                        and self.world.count_publishers('tactile/state') > 0)
-        wait_for(lambda: self.controller._perception is not None
-                 and self.controller._joint is not None)
+        self.executor = SingleThreadedExecutor()
+        for node in (self.controller, self.world, self.client_node):
+            self.executor.add_node(node)
+        assert self.spin_until(lambda: self.client.server_is_ready()
+                               and self.reset_client.service_is_ready()
+                               and self.world.count_subscribers('/clock') > 0
+                               and self.world.states, 30.0)
+        # the controller has the clock and fresh data once it accepts to report them
+        self.spin_for(0.3)
+
+    @property
+    def now(self) -> float:
+        """Simulated time [s]."""
+        return self.world.sim_time
+
+    def spin_until(self, condition: Callable[[], object], timeout: float = 10.0) -> bool:
+        """Run callbacks until ``condition()`` is true or ``timeout`` simulated seconds."""
+        end = self.now + timeout
+        wall_end = time.monotonic() + WALL_LIMIT
+        while not condition():
+            if self.now >= end or time.monotonic() >= wall_end:
+                return bool(condition())
+            self.executor.spin_once(timeout_sec=0.05)
+        return True
+
+    def spin_for(self, duration: float) -> None:
+        """Run callbacks for ``duration`` simulated seconds."""
+        self.spin_until(lambda: False, duration)
 
     def close(self) -> None:
-        for executor in self.executors:
-            executor.shutdown(timeout_sec=2.0)
-        for thread in self.threads:
-            thread.join(timeout=2.0)
+        self.executor.shutdown(timeout_sec=2.0)
         self.client.destroy()
         for node in (self.controller, self.world, self.client_node):
             node.destroy_node()
 
-    def send(self, feedback: list | None = None, **goal_fields):
+    def send(self, feedback: list | None = None, **goal_fields: object):
         goal = Grasp.Goal()
         for name, value in goal_fields.items():
             setattr(goal, name, value)
         future = self.client.send_goal_async(
             goal, feedback_callback=(lambda msg: feedback.append(msg.feedback))
             if feedback is not None else None)
-        assert wait_for(future.done)
+        assert self.spin_until(future.done)
         return future.result()
 
     def result(self, handle, timeout: float = 15.0):
         future = handle.get_result_async()
-        assert wait_for(future.done, timeout)
+        assert self.spin_until(future.done, timeout)
         return future.result()
 
     def reset(self):
         future = self.reset_client.call_async(ResetFault.Request())
-        assert wait_for(future.done)
+        assert self.spin_until(future.done)
         return future.result()
 
-
-def wait_for(condition, timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(0.01)
-    return bool(condition())
+    def lifting(self, **goal_fields: object):
+        """Send a goal and run until the controller reports LIFTING."""
+        handle = self.send(**goal_fields)
+        assert handle.accepted
+        assert self.spin_until(lambda: self.world.state == GraspState.LIFTING)
+        return handle
 
 
 @pytest.fixture(scope='module')
@@ -235,7 +238,7 @@ def test_forte_grasp_lifts_with_feedback_and_latched_state(harness):
     response = harness.result(handle)
     result = response.result
     assert result.outcome == Outcome.LIFTED, result.message
-    assert response.status == 4  # GoalStatus.STATUS_SUCCEEDED
+    assert response.status == STATUS_SUCCEEDED
     assert result.lift_height == pytest.approx(0.005, abs=0.002)
     assert result.final_force > 0.0
     assert len(feedback) >= 3
@@ -243,6 +246,7 @@ def test_forte_grasp_lifts_with_feedback_and_latched_state(harness):
     # the servo closed from the open angle towards the object, the arm moved up then stopped
     commands = [msg.position for _, msg in harness.world.servo_log]
     assert commands[0] < 0.7 and min(commands) < 0.5
+    harness.spin_for(0.1)
     velocities = [msg.twist.linear.z for _, msg in harness.world.arm_log]
     assert max(velocities) == pytest.approx(0.02)
     assert velocities[-1] == 0.0
@@ -250,26 +254,24 @@ def test_forte_grasp_lifts_with_feedback_and_latched_state(harness):
     assert harness.world.lift == pytest.approx(0.005, abs=0.003)
     # a late joiner receives the latest grasp state (transient local)
     late = []
-    node = harness.client_node
-    node.create_subscription(GraspStateMsg, 'grasp/state', late.append, LATCHED)
-    assert wait_for(lambda: bool(late))
+    harness.client_node.create_subscription(GraspStateMsg, 'grasp/state', late.append, LATCHED)
+    assert harness.spin_until(lambda: late)
     assert late[-1].state == GraspState.DONE and late[-1].last_outcome == Outcome.LIFTED
     assert late[-1].header.frame_id == 'forte_base_link'
 
 
 def test_slip_tightens_from_the_tactile_callback(harness):
     harness.controller.set_parameters([Parameter('lift_distance', value=0.02)])
-    handle = harness.send()
-    assert wait_for(lambda: harness.controller._machine.state == GraspState.LIFTING)
-    time.sleep(0.1)
-    with harness.world.lock:
-        before = harness.world.servo_log[-1][1].position
-        count = len(harness.world.servo_log)
-        harness.world.slip_next = True
-    assert wait_for(lambda: len(harness.world.servo_log) > count, 2.0)
-    with harness.world.lock:
-        after = harness.world.servo_log[count][1].position
-    assert after == pytest.approx(before - PAPER_SLIP_INCREMENT, abs=1e-9)
+    handle = harness.lifting()
+    harness.spin_for(0.1)
+    before = harness.world.servo_log[-1][1].position
+    count = len(harness.world.servo_log)
+    harness.world.slip_next = True
+    assert harness.spin_until(lambda: len(harness.world.servo_log) > count, 1.0)
+    tightening = harness.world.servo_log[count][1]
+    assert tightening.position == pytest.approx(before - PAPER_SLIP_INCREMENT, abs=1e-9)
+    # sent from the callback of the perception update that carried the flag (the controller
+    # records the latency of those reactions only), not by the 20 Hz control step
     assert len(harness.controller.slip_reaction_latency) == 1
     result = harness.result(handle).result
     assert result.outcome == Outcome.LIFTED and result.slip_events == 1
@@ -278,50 +280,47 @@ def test_slip_tightens_from_the_tactile_callback(harness):
 
 def test_cancel_stops_the_arm_immediately(harness):
     harness.controller.set_parameters([Parameter('lift_distance', value=0.02)])
-    handle = harness.send()
-    assert wait_for(lambda: harness.controller._machine.state == GraspState.LIFTING)
-    time.sleep(0.2)
+    handle = harness.lifting()
+    harness.spin_for(0.2)
     assert harness.world.arm_velocity > 0.0
     cancel = handle.cancel_goal_async()
-    assert wait_for(cancel.done)
-    canceled_at = time.monotonic()
+    assert harness.spin_until(cancel.done)
+    canceled_at = harness.now
     response = harness.result(handle)
     assert response.result.outcome == Outcome.CANCELED
-    assert response.status == 5  # GoalStatus.STATUS_CANCELED
-    assert wait_for(lambda: harness.world.arm_velocity == 0.0, 1.0)
-    time.sleep(0.3)
-    with harness.world.lock:
-        late_motion = [msg.twist.linear.z for t, msg in harness.world.arm_log
-                       if t > canceled_at + 0.05]
+    assert response.status == STATUS_CANCELED
+    assert harness.spin_until(lambda: harness.world.arm_velocity == 0.0, 0.1)
+    harness.spin_for(0.3)
+    late_motion = [msg.twist.linear.z for t, msg in harness.world.arm_log
+                   if t > canceled_at + 0.05]
     assert all(v == 0.0 for v in late_motion)
     assert response.result.lift_height < 0.02
+    assert harness.world.state == GraspState.DONE
+    assert harness.world.states[-1].last_outcome == Outcome.CANCELED
 
 
 def test_stale_perception_faults_latches_and_reset_service(harness):
     harness.controller.set_parameters([Parameter('lift_distance', value=0.02)])
-    handle = harness.send()
-    assert wait_for(lambda: harness.controller._machine.state == GraspState.LIFTING)
+    handle = harness.lifting()
     harness.world.publish_perception = False
     response = harness.result(handle)
     assert response.result.outcome == Outcome.FAULT
     assert 'STALE_PERCEPTION' in response.result.message
-    assert response.status == 6  # GoalStatus.STATUS_ABORTED
-    assert wait_for(lambda: harness.world.arm_velocity == 0.0, 1.0)
-    assert wait_for(lambda: harness.world.states
-                    and harness.world.states[-1].state == GraspState.FAULT)
+    assert response.status == STATUS_ABORTED
+    assert harness.spin_until(lambda: harness.world.arm_velocity == 0.0, 0.1)
+    assert harness.spin_until(lambda: harness.world.state == GraspState.FAULT)
     assert harness.world.states[-1].fault_flags == FaultFlag.STALE_PERCEPTION
     # latched: a new goal is refused, and reset is refused while the data is stale
     assert not harness.send().accepted
     reset = harness.reset()
     assert not reset.success and 'STALE_PERCEPTION' in reset.message
     harness.world.publish_perception = True
-    time.sleep(0.1)
+    harness.spin_for(0.1)
     reset = harness.reset()
     assert reset.success and reset.cleared_flags == FaultFlag.STALE_PERCEPTION
     # back to normal: the gripper is now holding the object, open it for the next grasp
-    with harness.world.lock:
-        harness.world.theta = 0.7
-        harness.world.command = None
+    harness.world.theta = 0.7
+    harness.world.command = None
     handle = harness.send()
     assert handle.accepted
     assert harness.result(handle).result.outcome == Outcome.LIFTED
@@ -329,20 +328,20 @@ def test_stale_perception_faults_latches_and_reset_service(harness):
 
 def test_no_joint_states_refuses_goal_before_motion(harness):
     harness.world.publish_joints = False
-    time.sleep(FAST['joint_state_timeout'] + 0.2)
+    harness.spin_for(0.4)  # twice the default joint_state_timeout (0.2 s)
     handle = harness.send()
     if handle.accepted:  # accepted by the goal callback, refused by the machine
         result = harness.result(handle).result
         assert result.outcome == Outcome.FAULT and 'STALE_JOINT_STATE' in result.message
+    harness.spin_for(0.1)
     assert harness.world.servo_log == []
     assert all(msg.twist.linear.z == 0.0 for _, msg in harness.world.arm_log)
 
 
 def test_drop_detected_from_sensors(harness):
     harness.controller.set_parameters([Parameter('lift_distance', value=0.03)])
-    handle = harness.send(controller=Grasp.Goal.NO_SLIP)
-    assert wait_for(lambda: harness.controller._machine.state == GraspState.LIFTING)
-    time.sleep(0.2)
+    handle = harness.lifting(controller=Grasp.Goal.NO_SLIP)
+    harness.spin_for(0.2)
     harness.world.object_present = False
     result = harness.result(handle).result
     assert result.outcome == Outcome.DROPPED, result.message
@@ -359,14 +358,17 @@ def test_invalid_goal_and_unsafe_parameters_refused(harness):
     assert harness.controller.get_parameter('initial_force').value == 0.25
     results = harness.controller.set_parameters([Parameter('contact_mode', value='any')])
     assert not results[0].successful and 'contact_mode' in results[0].reason
-    assert harness.controller._machine.params.max_force == 8.0
+    assert harness.controller.get_parameter('max_force').value == 8.0
     results = harness.controller.set_parameters([Parameter('max_force', value=3.0)])
-    assert results[0].successful and harness.controller._machine.params.max_force == 3.0
+    assert results[0].successful
+    # the new cap applies to the next goal: a goal above it is refused
+    assert not harness.send(max_force=5.0).accepted
 
 
 @pytest.mark.parametrize('harness', [{'dry_run': True}], indirect=True)
 def test_dry_run_computes_but_publishes_no_motion(harness):
-    handle = harness.send()
+    feedback = []
+    handle = harness.send(feedback)
     result = harness.result(handle).result
     assert result.outcome in (Outcome.NO_CONTACT, Outcome.TIMEOUT, Outcome.LIFTED,
                               Outcome.DROPPED)
@@ -374,14 +376,40 @@ def test_dry_run_computes_but_publishes_no_motion(harness):
     assert harness.world.arm_log and all(msg.twist.linear.z == 0.0
                                          for _, msg in harness.world.arm_log)
     # the state machine did run: it ramped the command although nothing was published
-    assert harness.controller._last_outputs.servo is not None
+    commands = [f.servo_command for f in feedback]
+    assert commands and min(commands) < 0.7
 
 
-def test_gripper_command_action():
-    pytest.importorskip('control_msgs', reason='control_msgs is not installed here (no '
-                        'wheel on the package index); the GripperCommand server is only '
-                        'created where it is')
-
+def test_gripper_command_action(harness):
+    control_msgs = pytest.importorskip(
+        'control_msgs.action', reason='control_msgs is not installed here (the launch kit '
+        'builds it); the GripperCommand server is only created where it is')
+    client = ActionClient(harness.client_node, control_msgs.GripperCommand, 'gripper_cmd')
+    assert harness.spin_until(client.server_is_ready)
+    harness.world.object_present = False
+    goal = control_msgs.GripperCommand.Goal()
+    goal.command.position = 0.3
+    goal.command.max_effort = 0.5
+    sent = client.send_goal_async(goal)
+    assert harness.spin_until(sent.done)
+    handle = sent.result()
+    assert handle.accepted
+    future = handle.get_result_async()
+    assert harness.spin_until(future.done, 5.0)
+    result = future.result().result
+    assert result.reached_goal and not result.stalled
+    assert result.position == pytest.approx(0.3, abs=0.03)
+    command = harness.world.servo_log[-1][1]
+    assert command.position == pytest.approx(0.3) and command.max_current == 0.5
+    # refused while a grasp runs
+    harness.world.object_present = True
+    harness.world.theta = 0.7
+    harness.world.command = None
+    harness.lifting()
+    sent = client.send_goal_async(goal)
+    assert harness.spin_until(sent.done)
+    assert not sent.result().accepted
+    client.destroy()
 
 
 def test_diagnostics_report_state_and_fault(harness):
@@ -389,18 +417,17 @@ def test_diagnostics_report_state_and_fault(harness):
     received = []
     harness.client_node.create_subscription(DiagnosticArray, '/diagnostics', received.append,
                                             RELIABLE10)
-    assert wait_for(lambda: received, 5.0)
+    assert harness.spin_until(lambda: received, 3.0)
     status = received[-1].status[0]
     assert 'grasp_controller' in status.name and status.level == DiagnosticStatus.OK
     values = {item.key: item.value for item in status.values}
-    assert values['state'] == 'IDLE' and float(values['perception_age_s']) < 1.0
+    assert values['state'] == 'IDLE' and float(values['perception_age_s']) < 0.1
     harness.controller.set_parameters([Parameter('lift_distance', value=0.02)])
-    harness.send()
-    assert wait_for(lambda: harness.controller._machine.state == GraspState.LIFTING)
+    harness.lifting()
     harness.world.publish_joints = False
-    assert wait_for(lambda: harness.controller._machine.state == GraspState.FAULT, 5.0)
+    assert harness.spin_until(lambda: harness.world.state == GraspState.FAULT, 2.0)
     received.clear()
-    assert wait_for(lambda: received, 5.0)
+    assert harness.spin_until(lambda: received, 3.0)
     status = received[-1].status[0]
     assert status.level == DiagnosticStatus.ERROR
     values = {item.key: item.value for item in status.values}
@@ -411,7 +438,7 @@ def test_diagnostics_report_state_and_fault(harness):
 def test_recorded_stamps_with_receive_time(harness):
     """Replayed data carry old stamps: by header stamp they are stale, by receive time not."""
     harness.world.stamp_offset = 30.0
-    time.sleep(0.3)
+    harness.spin_for(0.3)
     handle = harness.send()
     assert handle.accepted
     assert harness.result(handle).result.outcome == Outcome.LIFTED
@@ -419,7 +446,7 @@ def test_recorded_stamps_with_receive_time(harness):
 
 def test_recorded_stamps_are_stale_by_default(harness):
     harness.world.stamp_offset = 30.0
-    time.sleep(0.3)
+    harness.spin_for(0.3)
     handle = harness.send()
     if handle.accepted:
         result = harness.result(handle).result

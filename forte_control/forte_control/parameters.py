@@ -1,0 +1,230 @@
+"""Every grasp controller parameter in one table: type, unit, range and description.
+
+The table is the single source of what a parameter means and which values it may take:
+
+- :meth:`forte_control.state_machine.ControllerParams.problems` checks the ranges and
+  choices of :data:`CONTROLLER_PARAMETERS` (through :func:`range_problems`);
+- the node ``grasp_controller`` builds its ``ParameterDescriptor`` objects (description,
+  ``FloatingPointRange`` / ``IntegerRange``, allowed choices) from the same entries
+  (:mod:`forte_control.node_parameters`), so ``ros2 param describe`` shows exactly the range
+  the state machine enforces.
+
+Bounds are inclusive at both ends, as ``FloatingPointRange`` is. A quantity that must be
+strictly positive (a speed, a timeout, a cap) has a small positive minimum instead of an open
+bound at zero, so the descriptor can say it.
+
+The defaults of the state machine's parameters stay in :class:`ControllerParams` (the
+paper's values, documented there); the node-only parameters carry their default here. This
+module is pure Python (no rclpy), like the state machine.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+# Hard limits no parameter may exceed (also the upper ends of the ranges below).
+HARD_MAX_FORCE = 10.0            # [N], above the force model's 0-8 N range
+HARD_MAX_LIFT_SPEED = 0.05       # [m/s]
+HARD_MAX_LIFT_DISTANCE = 0.5     # [m]
+HARD_MAX_SERVO_SPEED = 3.0       # [rad/s]
+HARD_MAX_CURRENT = 2.3           # [A], XM430-W350 stall current
+HARD_MAX_SLIP_INCREMENT = math.radians(5.0)  # [rad]
+HARD_MAX_TIGHTENING = 0.6        # [rad]
+HARD_MAX_FRESHNESS = 1.0         # [s]
+HARD_MAX_ANGLE = math.pi         # [rad]
+
+# Smallest values of quantities that must be positive (inclusive lower bounds).
+MIN_SERVO_SPEED = 1e-3           # [rad/s]
+MIN_ANGLE_STEP = 1e-4            # [rad]
+MIN_FORCE = 0.01                 # [N]
+MIN_LIFT_SPEED = 1e-4            # [m/s]
+MIN_LIFT_DISTANCE = 1e-4         # [m]
+MIN_DURATION = 1e-3              # [s]
+MIN_CURRENT = 0.01               # [A]
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """One parameter: what it means and which values it may take.
+
+    Parameters
+    ----------
+    name : str
+        Parameter name (a :class:`ControllerParams` field or a node-only parameter).
+    kind : type
+        ``float``, ``int``, ``bool``, ``str`` or ``list`` (a list of strings).
+    unit : str
+        Unit, e.g. ``'rad/s'``; empty for dimensionless values, flags and text.
+    description : str
+        One line for ``ros2 param describe`` (without unit and range: they are appended).
+    low, high : float, optional
+        Inclusive range of a number; ``None`` for flags and text.
+    choices : tuple of str
+        The allowed values of a text parameter (empty: any text).
+    default : object, optional
+        Default of a node-only parameter; ``None`` for the state machine's parameters
+        (their default is the :class:`ControllerParams` field's).
+    read_only : bool
+        The node refuses changes after start-up.
+    """
+
+    name: str
+    kind: type
+    unit: str
+    description: str
+    low: float | None = None
+    high: float | None = None
+    choices: tuple[str, ...] = ()
+    default: object = None
+    read_only: bool = False
+
+    def accepts(self, value: object) -> bool:
+        """True if ``value`` is inside the range / among the choices (type not checked)."""
+        if self.choices:
+            return value in self.choices
+        if self.low is None or self.high is None:
+            return True
+        return isinstance(value, int | float) and math.isfinite(value) \
+            and self.low <= value <= self.high
+
+    def range_text(self) -> str:
+        """The allowed values as text, e.g. ``'[0.001, 3.0] rad/s'`` or ``"'either' | 'both'"``."""
+        if self.choices:
+            return ' | '.join(repr(choice) for choice in self.choices)
+        if self.low is None or self.high is None:
+            return ''
+        return f'[{self.low:g}, {self.high:g}]' + (f' {self.unit}' if self.unit else '')
+
+    def full_description(self) -> str:
+        """Description with unit, as shown by ``ros2 param describe``."""
+        return self.description + (f' [{self.unit}]' if self.unit else '')
+
+
+def _spec(name: str, kind: type, unit: str, description: str, low: float | None = None,
+          high: float | None = None, **extra: object) -> ParameterSpec:
+    return ParameterSpec(name, kind, unit, description, low, high, **extra)
+
+
+SERVO_SPEED = (MIN_SERVO_SPEED, HARD_MAX_SERVO_SPEED)
+
+#: The state machine's parameters (the fields of :class:`ControllerParams`), in field order.
+CONTROLLER_PARAMETERS: dict[str, ParameterSpec] = {spec.name: spec for spec in (
+    # closing and contact
+    _spec('closing_speed', float, 'rad/s', 'servo command ramp while closing to contact',
+          *SERVO_SPEED),
+    _spec('contact_mode', str, '', "contact needed on 'either' finger (paper: any channel) "
+          "or on 'both'", choices=('either', 'both')),
+    _spec('min_angle', float, 'rad', 'most closed servo command allowed', 0.0, HARD_MAX_ANGLE),
+    _spec('no_contact_settle', float, 's', 'wait at min_angle before NO_CONTACT', 0.0, 10.0),
+    # loading
+    _spec('loading_speed', float, 'rad/s', 'servo command ramp while loading the initial force',
+          *SERVO_SPEED),
+    _spec('initial_force', float, 'N', 'initial force f_init loaded after contact',
+          MIN_FORCE, HARD_MAX_FORCE),
+    _spec('initial_force_mode', str, '', "'relative' (f_init above the force at contact) or "
+          "'absolute'", choices=('relative', 'absolute')),
+    _spec('invalid_force_timeout', float, 's', 'longest wait for a valid force while loading',
+          0.0, 5.0),
+    # lifting
+    _spec('lift_speed', float, 'm/s', 'arm lift speed', MIN_LIFT_SPEED, HARD_MAX_LIFT_SPEED),
+    _spec('lift_distance', float, 'm', 'lift height that counts as success',
+          MIN_LIFT_DISTANCE, HARD_MAX_LIFT_DISTANCE),
+    _spec('hold_duration', float, 's', 'time held at the lift height before LIFTED', 0.0, 600.0),
+    # slip reaction
+    _spec('slip_increment', float, 'rad', 'servo tightening per slip event (paper: 0.88 deg)',
+          MIN_ANGLE_STEP, HARD_MAX_SLIP_INCREMENT),
+    _spec('slip_refractory', float, 's', 'minimum time between two slip tightenings', 0.0, 10.0),
+    _spec('slip_speed', float, 'rad/s', 'servo profile velocity of a slip tightening',
+          *SERVO_SPEED),
+    # drop detection
+    _spec('drop_force_fraction', float, '', 'drop when force < fraction x reference force',
+          0.0, 1.0),
+    _spec('drop_min_reference_force', float, 'N', 'force drop detector armed above this '
+          'reference', 0.0, HARD_MAX_FORCE),
+    _spec('drop_level_fraction', float, '', 'drop when deformation < fraction x reference',
+          0.0, 1.0),
+    _spec('drop_min_reference_level', float, '', 'deformation drop detector armed above this '
+          '(sensor units, -1..1)', 0.0, 2.0),
+    _spec('drop_on_contact_loss', bool, '', 'also detect a drop when both contact flags are '
+          'false'),
+    _spec('drop_confirm_time', float, 's', 'a drop condition must persist this long', 0.0, 10.0),
+    # ON_OFF controller
+    _spec('on_off_closing_speed', float, 'rad/s', 'constant closing speed of the ON_OFF '
+          'controller', *SERVO_SPEED),
+    _spec('on_off_settle', float, 's', 'ON_OFF wait at theta = 0 before lifting', 0.0, 10.0),
+    # release
+    _spec('open_angle', float, 'rad', 'servo command when releasing', MIN_ANGLE_STEP,
+          HARD_MAX_ANGLE),
+    _spec('release_speed', float, 'rad/s', 'servo speed when releasing', *SERVO_SPEED),
+    _spec('release_tolerance', float, 'rad', 'joint angle tolerance that ends RELEASING',
+          MIN_ANGLE_STEP, 1.0),
+    _spec('release_timeout', float, 's', 'longest RELEASING', MIN_DURATION, 60.0),
+    # safety
+    _spec('max_force', float, 'N', 'grip force cap', MIN_FORCE, HARD_MAX_FORCE),
+    _spec('force_limit_confirm', float, 's', 'force above the cap this long before '
+          'FORCE_LIMIT (no tightening meanwhile)', 0.0, 0.2),
+    _spec('max_tightening', float, 'rad', 'cap on total slip tightening', 0.0,
+          HARD_MAX_TIGHTENING),
+    _spec('max_lift_distance', float, 'm', 'lift height cap', MIN_LIFT_DISTANCE,
+          HARD_MAX_LIFT_DISTANCE),
+    _spec('max_lift_speed', float, 'm/s', 'largest lift speed a goal may request',
+          MIN_LIFT_SPEED, HARD_MAX_LIFT_SPEED),
+    _spec('perception_timeout', float, 's', 'perception freshness bound', MIN_DURATION,
+          HARD_MAX_FRESHNESS),
+    _spec('joint_state_timeout', float, 's', 'joint state freshness bound', MIN_DURATION,
+          HARD_MAX_FRESHNESS),
+    _spec('invalid_input_timeout', float, 's', 'perception data_valid false this long -> '
+          'fault', 0.0, 5.0),
+    _spec('timeout', float, 's', 'whole-grasp timeout', MIN_DURATION, 3600.0),
+    _spec('max_current', float, 'A', 'servo current limit sent with every command',
+          MIN_CURRENT, HARD_MAX_CURRENT),
+)}
+
+#: Parameters of the node only (not of the state machine), with their defaults.
+NODE_PARAMETERS: dict[str, ParameterSpec] = {spec.name: spec for spec in (
+    _spec('control_rate', float, 'Hz', 'rate of the control step and of arm velocity commands',
+          1.0, 200.0, default=20.0, read_only=True),
+    _spec('feedback_rate', float, 'Hz', 'rate of action feedback and grasp/state messages',
+          0.1, 100.0, default=10.0, read_only=True),
+    _spec('step_on_perception', bool, '', 'also step the state machine on every tactile/state '
+          'message (slip messages are always handled at once)', default=True),
+    _spec('arm_frame_id', str, '', "frame_id of arm/cmd_vel (the arm's base frame)",
+          default='base_link'),
+    _spec('gripper_frame_id', str, '', 'frame_id of grasp/state and gripper/command',
+          default='forte_base_link'),
+    _spec('joint_names', list, '', 'joints whose mean position is the servo angle',
+          default=('forte_left_finger_joint', 'forte_right_finger_joint'), read_only=True),
+    _spec('use_receive_time', bool, '', 'judge data freshness by receive time instead of '
+          'header stamps (for replays of recorded stamps without a /clock)', default=False,
+          read_only=True),
+    _spec('dry_run', bool, '', 'compute everything but publish zero arm velocity and no servo '
+          'commands (bag replay); refused while a grasp is active', default=False),
+)}
+
+
+def range_problems(values: Mapping[str, object]) -> list[str]:
+    """Reasons why values are outside their parameter's range or choices.
+
+    Parameters
+    ----------
+    values : mapping
+        Parameter name -> value; names without an entry in :data:`CONTROLLER_PARAMETERS`
+        or :data:`NODE_PARAMETERS` are ignored.
+
+    Returns
+    -------
+    list of str
+        One reason per refused value, ``'<name>=<value> outside <range>'`` (a number) or
+        ``'<name> must be one of <choices>, got <value>'`` (a text); empty when all fit.
+    """
+    out: list[str] = []
+    for name, value in values.items():
+        spec = CONTROLLER_PARAMETERS.get(name) or NODE_PARAMETERS.get(name)
+        if spec is None or spec.accepts(value):
+            continue
+        if spec.choices:
+            out.append(f'{name} must be one of {spec.range_text()}, got {value!r}')
+        else:
+            out.append(f'{name}={value} outside {spec.range_text()}')
+    return out
