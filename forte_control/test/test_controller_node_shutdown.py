@@ -4,10 +4,7 @@ executor is stopped, the process exits with code 0 within a few seconds and prin
 traceback."""
 from __future__ import annotations
 
-import os
-import shutil
 import signal
-from pathlib import Path
 
 import pytest
 from geometry_msgs.msg import TwistStamped
@@ -25,17 +22,7 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
-def executable(package: str, name: str) -> str:
-    """The node executable as ``ros2 run`` finds it: on PATH, else ``<prefix>/lib/<package>``
-    of the prefix on AMENT_PREFIX_PATH that holds it (colcon installs it there)."""
-    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
-        candidate = Path(prefix, 'lib', package, name)
-        if prefix and candidate.is_file() and os.access(candidate, os.X_OK):
-            return str(candidate)
-    return shutil.which(name) or name
-
-
-CONTROLLER = executable('forte_control', 'grasp_controller_node')
+CONTROLLER = 'grasp_controller_node'  # found as ros2 run finds it (forte_ros.testing)
 
 
 def check_clean_stop(process: NodeProcess, signum: int) -> None:
