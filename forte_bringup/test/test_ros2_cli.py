@@ -25,6 +25,7 @@ import subprocess
 import threading
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -63,15 +64,39 @@ def ros2(*arguments: str, timeout: float = 120.0, cwd: Path | None = None) -> st
     return result.stdout
 
 
+@contextmanager
+def sigint_as_in_a_terminal() -> Iterator[None]:
+    """Let a command started now receive SIGINT as one started from a terminal does.
+
+    A test run started in the background by a shell without job control (``cmd &`` in a
+    script, CI) ignores SIGINT, and an ignored signal stays ignored across fork and exec:
+    ``ros2 launch`` would then never see the Ctrl-C this file sends (launch only watches a
+    wakeup fd, it does not install a handler), and hang. Python's default handler is set
+    for the moment of the fork instead (a caught signal is reset to the default by exec).
+    """
+    ignored = (threading.current_thread() is threading.main_thread()
+               and signal.getsignal(signal.SIGINT) is signal.SIG_IGN)
+    if ignored:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        if ignored:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 class Running:
     """A long-running ``ros2`` command whose output lines are collected by a thread."""
 
     def __init__(self, *arguments: str, cwd: Path | None = None) -> None:
-        # unbuffered: lines arrive as printed although stdout is a pipe, not a terminal
-        self.process = subprocess.Popen(
-            ['ros2', *arguments], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-            text=True, bufsize=1, env={**os.environ, 'PYTHONUNBUFFERED': '1'},
-            start_new_session=True)  # its own process group, for the cleanup only
+        # unbuffered: lines arrive as printed although stdout is a pipe, not a terminal;
+        # faulthandler: SIGABRT prints every thread's stack (see abort_with_stacks)
+        with sigint_as_in_a_terminal():
+            self.process = subprocess.Popen(
+                ['ros2', *arguments], cwd=cwd, stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT, text=True, bufsize=1,
+                env={**os.environ, 'PYTHONUNBUFFERED': '1', 'PYTHONFAULTHANDLER': '1'},
+                start_new_session=True)  # its own process group, for the cleanup only
         self.lines: list[str] = []
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
@@ -117,19 +142,54 @@ class Running:
         self._reader.join(timeout=5)
         return code
 
-    def kill(self) -> None:
-        """SIGTERM, then SIGKILL, to the command's process group (cleanup after a failure)."""
-        for sig in (signal.SIGTERM, signal.SIGKILL):
-            if self.process.poll() is not None:
-                return
+    def abort_with_stacks(self) -> str:
+        """SIGABRT to a command that hangs: its output ending with every thread's stack.
+
+        Its threads' signal masks (pending, blocked, ignored, caught, from ``/proc``) come
+        first: a SIGINT that never reached launch's handler shows there.
+        """
+        masks = []
+        for status in sorted(Path(f'/proc/{self.process.pid}/task').glob('*/status')):
             try:
-                os.killpg(self.process.pid, sig)
-            except ProcessLookupError:
-                return
+                fields = dict(line.split(':\t', 1) for line in status.read_text().splitlines()
+                              if ':\t' in line)
+            except OSError:
+                continue
+            name = fields.get('Name', '').strip()
+            masks.append(f'thread {status.parent.name} {name}: ' + ' '.join(
+                f'{key}={fields.get(key, "?").strip()}'
+                for key in ('SigPnd', 'ShdPnd', 'SigBlk', 'SigIgn', 'SigCgt')))
+        self.lines.append('signal masks:\n' + '\n'.join(masks) + '\n')
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGABRT)
             try:
                 self.process.wait(10)
             except subprocess.TimeoutExpired:
-                continue
+                pass
+        self._reader.join(timeout=5)
+        return self.output
+
+    def kill(self) -> None:
+        """SIGTERM, then SIGKILL, to the command's process group (cleanup).
+
+        The group holds the command and what it started, and is killed also when the
+        command itself has already exited: a launch that died leaves its nodes running, on
+        a domain id that a later test run may reserve.
+        """
+        self.process.poll()  # reap an exited leader: a zombie still counts in its group
+        for sig in (signal.SIGTERM, signal.SIGKILL):
+            try:
+                os.killpg(self.process.pid, sig)
+            except ProcessLookupError:
+                return  # the group is empty
+            deadline = time.monotonic() + 10.0
+            while time.monotonic() < deadline:
+                self.process.poll()
+                try:
+                    os.killpg(self.process.pid, 0)
+                except ProcessLookupError:
+                    return
+                time.sleep(0.2)
 
 
 def sim_real_time_factor() -> float:
@@ -159,8 +219,8 @@ def sim_launch(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Running]:
     try:
         yield launch
     finally:
-        if launch.interrupt(60.0) is None:
-            launch.kill()
+        launch.interrupt(60.0)
+        launch.kill()  # whatever is left of the graph
         subprocess.run(['ros2', 'daemon', 'stop'], stdout=subprocess.DEVNULL,
                        stderr=subprocess.STDOUT, timeout=60)
 
@@ -181,8 +241,8 @@ def test_topic_hz_reports_the_frame_rate(sim_launch: Running):
     try:
         lines = hz.wait_for(r'average rate:', 90.0, count=3)
     finally:
-        if hz.interrupt(20.0) is None:
-            hz.kill()
+        hz.interrupt(20.0)
+        hz.kill()
     assert len(lines) >= 3, hz.output
     rates = [float(line.split(':')[1]) for line in lines]
     # 2 kHz in batches of 20 = 100 messages per simulated second, x real_time_factor
@@ -235,8 +295,11 @@ def test_lifecycle_deactivate_and_activate(sim_launch: Running):
 
 def test_ctrl_c_stops_the_launch_cleanly(sim_launch: Running):
     code = sim_launch.interrupt(60.0)
+    if code is None:
+        stacks = sim_launch.abort_with_stacks()
+        pytest.fail('ros2 launch still running 60 s after SIGINT; its output and, after '
+                    'SIGABRT, its threads:\n' + stacks[-12000:])
     output = sim_launch.output
-    assert code is not None, 'ros2 launch still running 60 s after SIGINT:\n' + output[-3000:]
     assert 'Traceback' not in output, output
     assert code == 0, output[-3000:]
     for node in ('sim_node', 'perception_node', 'grasp_controller_node'):
