@@ -389,7 +389,9 @@ def run_trial(object_name: str, controller, seed: int = 0,
             slip_active=bool(out.slip_active), data_valid=bool(out.data_valid),
             filtered=tuple(float(v) for v in out.filtered),
             finger_variance=(float(out.finger_variance[0]), float(out.finger_variance[1])))
-        joint = JointInput(stamp=stamp, theta=float(truth.joint_position[-1]))
+        # what the servos report: angle and current (never the scene's ground truth)
+        joint = JointInput(stamp=stamp, theta=float(truth.joint_position[-1]),
+                           effort=float(np.mean(scene.joint_effort)))
         return ControlInputs(perception=perception, joint=joint)
 
     goal = GraspGoal(**{**(goal.__dict__ if goal is not None else {}), 'controller': kind})

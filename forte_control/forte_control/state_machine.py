@@ -16,6 +16,11 @@ The procedure follows the results section of the FORTE paper:
    goal asked for it.
 
 Drops are detected from the sensors during LIFTING and HOLDING (see :class:`DropDetector`).
+The commanded lift proves nothing about the object: at the end of the hold the evidence of
+the lift (:mod:`.lift_check`: both fingers loaded equally, as only a free object can be, and
+no slip in the last part of the lift) decides between LIFTED and NOT_CARRIED. Closing fully
+without a contact flag ends in NO_CONTACT only if nothing was squeezed (joint not blocked,
+no deformation, force or current rise); else CLOSED_ON_OBJECT.
 NO_SLIP runs the same procedure without the slip reaction; ON_OFF closes fully at constant
 speed without sensing and lifts (its sensors only decide the recorded outcome).
 
@@ -32,6 +37,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields, replace
 from enum import IntEnum, IntFlag
+
+from .lift_check import LiftCheckParams, LiftMonitor, WrenchInput, closed_on_object_evidence
 
 # ---------------------------------------------------------------------------------------
 # Constants mirrored from forte_msgs (tests check they equal the message constants).
@@ -74,6 +81,8 @@ class Outcome(IntEnum):
     TIMEOUT = 5
     CANCELED = 6
     FAULT = 7
+    NOT_CARRIED = 8
+    CLOSED_ON_OBJECT = 9
 
 
 class Controller(IntEnum):
@@ -287,6 +296,7 @@ class JointInput:
     stamp: float                 # sample time [s]
     theta: float                 # servo angle [rad], 0 = fully closed
     servo_error: bool = False    # hardware error reported by the driver
+    effort: float | None = None  # servo current [A] (mean of the servos), None = not reported
 
 
 @dataclass(frozen=True)
@@ -295,6 +305,7 @@ class ControlInputs:
 
     perception: PerceptionInput | None = None
     joint: JointInput | None = None
+    wrench: WrenchInput | None = None   # wrist load, used only with LiftCheckParams.use_wrench
 
 
 @dataclass(frozen=True)
@@ -401,6 +412,8 @@ class _Grasp:
     last_tightening_time: float = -math.inf
     last_slip_stamp: float = -math.inf
     drop: DropDetector | None = None
+    lift: LiftMonitor | None = None
+    free_current: float | None = None  # lowest servo current while closing [A]
     slip_events: int = 0
     tightening: float = 0.0
     lift_height: float = 0.0
@@ -411,6 +424,7 @@ class _Grasp:
 class _Latest:
     perception: PerceptionInput | None = None
     joint: JointInput | None = None
+    wrench: WrenchInput | None = None
     invalid_since: float | None = None
 
 
@@ -421,6 +435,8 @@ class GraspStateMachine:
     ----------
     params : ControllerParams
         Node-level configuration and safety caps; validated (``ValueError`` if unsafe).
+    lift_check : LiftCheckParams, optional
+        Thresholds of the lift verification and of the closed-on-object check.
 
     Notes
     -----
@@ -430,8 +446,13 @@ class GraspStateMachine:
     arm velocity commanded at the previous step over the elapsed time.
     """
 
-    def __init__(self, params: ControllerParams | None = None) -> None:
+    def __init__(self, params: ControllerParams | None = None,
+                 lift_check: LiftCheckParams | None = None) -> None:
         self._params = (params or ControllerParams()).validated()
+        self._lift_check = lift_check or LiftCheckParams()
+        problems = self._lift_check.problems()
+        if problems:
+            raise ValueError('unusable lift check parameters: ' + '; '.join(problems))
         self._state = GraspState.IDLE
         self._controller = Controller.FORTE
         self._grasp: _Grasp | None = None
@@ -626,6 +647,8 @@ class GraspStateMachine:
                 latest.invalid_since = now
         if inputs.joint is not None:
             latest.joint = inputs.joint
+        if inputs.wrench is not None:
+            latest.wrench = inputs.wrench
 
     def _integrate(self, now: float) -> None:
         grasp = self._grasp
@@ -778,11 +801,14 @@ class GraspStateMachine:
                 return False
             command = self._ramp(now, p.closing_speed, p.min_angle)
             self._command(command, p.closing_speed)
+            if joint.effort is not None and math.isfinite(joint.effort):
+                grasp.free_current = joint.effort if grasp.free_current is None \
+                    else min(grasp.free_current, joint.effort)
             if command <= p.min_angle:
                 if grasp.at_min_since is None:
                     grasp.at_min_since = now
                 if now - grasp.at_min_since >= p.no_contact_settle:
-                    self._finish(Outcome.NO_CONTACT, 'closed fully without contact')
+                    self._finish_closed(command, perception)
             return False
 
         if state == GraspState.LOADING:
@@ -814,6 +840,10 @@ class GraspStateMachine:
             if valid and grasp.drop is not None and grasp.drop.update(perception, now):
                 self._finish(Outcome.DROPPED, f'dropped in {state.name}: {grasp.drop.reason}')
                 return reacted
+            if valid and grasp.lift is not None:
+                grasp.lift.update(perception.stamp, perception.filtered,
+                                  perception.slip and perception.slip_active,
+                                  state == GraspState.HOLDING, self._latest.wrench, now)
             if state == GraspState.LIFTING:
                 if grasp.lift_height >= p.lift_distance - 1e-12:
                     self._arm_velocity = 0.0
@@ -822,7 +852,11 @@ class GraspStateMachine:
                 else:
                     self._arm_velocity = p.lift_speed
             elif now - grasp.phase_start >= p.hold_duration:
-                if grasp.goal.release_after:
+                verdict = grasp.lift.verdict() if grasp.lift is not None else None
+                if verdict is not None and not verdict.carried:
+                    self._finish(Outcome.NOT_CARRIED, f'lift of {grasp.lift_height:.4f} m '
+                                 f'commanded, object not carried: {verdict.reason}')
+                elif grasp.goal.release_after:
                     grasp.outcome = Outcome.LIFTED
                     self._last_outcome = Outcome.LIFTED
                     self._arm_velocity = 0.0
@@ -831,7 +865,8 @@ class GraspStateMachine:
                     self._message = 'lifted and held; releasing'
                 else:
                     self._finish(Outcome.LIFTED, f'lifted {grasp.lift_height:.4f} m and held '
-                                 f'{p.hold_duration:g} s')
+                                 f'{p.hold_duration:g} s'
+                                 + (f': {verdict.reason}' if verdict is not None else ''))
             return reacted
 
         if state == GraspState.RELEASING:
@@ -905,12 +940,31 @@ class GraspStateMachine:
         assert grasp is not None
         self._enter(GraspState.LIFTING, now)
         grasp.drop = DropDetector(grasp.params)
+        grasp.lift = LiftMonitor(self._lift_check)
         perception = self._latest.perception
         if perception is not None and perception.data_valid \
                 and _fresh(perception.stamp, now, grasp.params.perception_timeout):
             grasp.drop.update(perception, now)  # references from the grip at lift start
         self._arm_velocity = grasp.params.lift_speed
         self._message = message
+
+    def _finish_closed(self, command: float, perception: PerceptionInput | None) -> None:
+        """Closed fully without a contact flag: NO_CONTACT, or CLOSED_ON_OBJECT on evidence."""
+        grasp = self._grasp
+        joint = self._latest.joint
+        assert grasp is not None and joint is not None
+        filtered = force = None
+        if perception is not None and perception.data_valid:
+            filtered = perception.filtered
+            if perception.force_valid:
+                force = perception.force
+        evidence = closed_on_object_evidence(self._lift_check, command, joint.theta, filtered,
+                                             force, joint.effort, grasp.free_current)
+        if evidence:
+            self._finish(Outcome.CLOSED_ON_OBJECT, 'closed fully without a contact flag, '
+                         f'but on something (possibly squeezed): {evidence}')
+        else:
+            self._finish(Outcome.NO_CONTACT, 'closed fully without contact')
 
     def _outputs(self, servo_changed: bool, slip_reacted: bool) -> ControlOutputs:
         grasp = self._grasp
@@ -960,5 +1014,6 @@ def _flag_names(flags: FaultFlag) -> str:
 __all__ = [
     'ACTIVE_STATES', 'PAPER_SLIP_INCREMENT', 'ControlInputs', 'ControlOutputs', 'Controller',
     'ControllerParams', 'DropDetector', 'FaultFlag', 'GraspGoal', 'GraspState',
-    'GraspStateMachine', 'JointInput', 'Outcome', 'PerceptionInput', 'ServoOutput',
+    'GraspStateMachine', 'JointInput', 'LiftCheckParams', 'Outcome', 'PerceptionInput',
+    'ServoOutput', 'WrenchInput',
 ]
