@@ -137,6 +137,7 @@ class LiftMonitor:
         self._hold_start: float | None = None
         self._wrench_start: float | None = None
         self._wrench: WrenchInput | None = None
+        self._now = -math.inf             # time of the latest update [s]
 
     def update(self, stamp: float, filtered: tuple[float, ...] | None, slip_flag: bool,
                holding: bool, wrench: WrenchInput | None = None, now: float | None = None
@@ -169,6 +170,7 @@ class LiftMonitor:
         if slip_flag and not holding:
             self._last_flag = max(self._last_flag, stamp)
         now = stamp if now is None else now
+        self._now = now
         if wrench is not None and math.isfinite(wrench.force_z) \
                 and now - wrench.stamp <= p.wrench_timeout:
             if self._wrench_start is None:
@@ -198,7 +200,8 @@ class LiftMonitor:
                                'the end of the lift: the fingers were still sliding')
         evidence = f'{pattern} equal, no slip in the last {p.quiet_time:g} s of the lift'
         if p.use_wrench:
-            if self._wrench is None or self._wrench_start is None:
+            if self._wrench is None or self._wrench_start is None \
+                    or self._now - self._wrench.stamp > p.wrench_timeout:
                 return LiftVerdict(False, f'{evidence}; no fresh wrist wrench')
             gained = self._wrench.force_z - self._wrench_start
             if gained < p.min_wrench_load:
