@@ -818,56 +818,7 @@ class GraspStateMachine:
             return self._loading(now, perception)
 
         if state in (GraspState.LIFTING, GraspState.HOLDING):
-            reacted = False
-            if controller == Controller.FORTE and valid and perception.slip \
-                    and perception.slip_active and perception.stamp > grasp.last_slip_stamp:
-                grasp.last_slip_stamp = perception.stamp
-                if now - grasp.last_tightening_time >= p.slip_refractory:
-                    if grasp.tightening + p.slip_increment > p.max_tightening + 1e-12:
-                        self._fault(FaultFlag.TIGHTENING_LIMIT,
-                                    f'slip tightening would exceed the cap '
-                                    f'{p.max_tightening:.4f} rad')
-                        return False
-                    assert self._servo is not None
-                    position = max(p.min_angle, self._servo.position - p.slip_increment)
-                    grasp.tightening += self._servo.position - position
-                    grasp.slip_events += 1
-                    grasp.last_tightening_time = now
-                    self._command(position, p.slip_speed)
-                    self._message = (f'slip {grasp.slip_events}: tightened to '
-                                     f'{position:.4f} rad')
-                    reacted = True
-            if valid and grasp.drop is not None and grasp.drop.update(perception, now):
-                self._finish(Outcome.DROPPED, f'dropped in {state.name}: {grasp.drop.reason}')
-                return reacted
-            if valid and grasp.lift is not None:
-                grasp.lift.update(perception.stamp, perception.filtered,
-                                  perception.slip and perception.slip_active,
-                                  state == GraspState.HOLDING, self._latest.wrench, now)
-            if state == GraspState.LIFTING:
-                if grasp.lift_height >= p.lift_distance - 1e-12:
-                    self._arm_velocity = 0.0
-                    self._enter(GraspState.HOLDING, now)
-                    self._message = f'lifted {grasp.lift_height:.4f} m, holding'
-                else:
-                    self._arm_velocity = p.lift_speed
-            elif now - grasp.phase_start >= p.hold_duration:
-                verdict = grasp.lift.verdict() if grasp.lift is not None else None
-                if verdict is not None and not verdict.carried:
-                    self._finish(Outcome.NOT_CARRIED, f'lift of {grasp.lift_height:.4f} m '
-                                 f'commanded, object not carried: {verdict.reason}')
-                elif grasp.goal.release_after:
-                    grasp.outcome = Outcome.LIFTED
-                    self._last_outcome = Outcome.LIFTED
-                    self._arm_velocity = 0.0
-                    self._enter(GraspState.RELEASING, now)
-                    self._command(p.open_angle, p.release_speed)
-                    self._message = 'lifted and held; releasing'
-                else:
-                    self._finish(Outcome.LIFTED, f'lifted {grasp.lift_height:.4f} m and held '
-                                 f'{p.hold_duration:g} s'
-                                 + (f': {verdict.reason}' if verdict is not None else ''))
-            return reacted
+            return self._lift_or_hold(now, state, perception, valid)
 
         if state == GraspState.RELEASING:
             self._arm_velocity = 0.0
@@ -879,6 +830,75 @@ class GraspStateMachine:
                 self._message = 'released'
             return False
         return False
+
+    def _lift_or_hold(self, now: float, state: GraspState,
+                      perception: PerceptionInput | None, valid: bool) -> bool:
+        """LIFTING / HOLDING: slip reaction, drop detection, lift evidence, arm, verdict."""
+        grasp = self._grasp
+        assert grasp is not None
+        p = grasp.params
+        reacted = False
+        if self._controller == Controller.FORTE and valid and perception.slip \
+                and perception.slip_active and perception.stamp > grasp.last_slip_stamp:
+            grasp.last_slip_stamp = perception.stamp
+            if now - grasp.last_tightening_time >= p.slip_refractory:
+                if grasp.tightening + p.slip_increment > p.max_tightening + 1e-12:
+                    self._fault(FaultFlag.TIGHTENING_LIMIT, 'slip tightening would exceed the '
+                                f'cap {p.max_tightening:.4f} rad')
+                    return False
+                assert self._servo is not None
+                position = max(p.min_angle, self._servo.position - p.slip_increment)
+                grasp.tightening += self._servo.position - position
+                grasp.slip_events += 1
+                grasp.last_tightening_time = now
+                self._command(position, p.slip_speed)
+                self._message = f'slip {grasp.slip_events}: tightened to {position:.4f} rad'
+                reacted = True
+        if valid and grasp.drop is not None and grasp.drop.update(perception, now):
+            self._finish(Outcome.DROPPED, f'dropped in {state.name}: {grasp.drop.reason}')
+            return reacted
+        if valid and grasp.lift is not None:
+            grasp.lift.update(perception.stamp, perception.filtered,
+                              perception.slip and perception.slip_active,
+                              state == GraspState.HOLDING, self._latest.wrench, now)
+        if state == GraspState.LIFTING:
+            self._lift_arm(now)
+        elif now - grasp.phase_start >= p.hold_duration:
+            self._judge_lift(now)
+        return reacted
+
+    def _lift_arm(self, now: float) -> None:
+        """Arm command while LIFTING: on up to the lift height, then HOLDING."""
+        grasp = self._grasp
+        assert grasp is not None
+        p = grasp.params
+        if grasp.lift_height >= p.lift_distance - 1e-12:
+            self._arm_velocity = 0.0
+            self._enter(GraspState.HOLDING, now)
+            self._message = f'lifted {grasp.lift_height:.4f} m, holding'
+        else:
+            self._arm_velocity = p.lift_speed
+
+    def _judge_lift(self, now: float) -> None:
+        """End of the hold: LIFTED (or RELEASING) if the object is carried, else NOT_CARRIED."""
+        grasp = self._grasp
+        assert grasp is not None
+        p = grasp.params
+        verdict = grasp.lift.verdict() if grasp.lift is not None else None
+        evidence = f': {verdict.reason}' if verdict is not None else ''
+        if verdict is not None and not verdict.carried:
+            self._finish(Outcome.NOT_CARRIED, f'lift of {grasp.lift_height:.4f} m commanded, '
+                         f'object not carried: {verdict.reason}')
+        elif grasp.goal.release_after:
+            grasp.outcome = Outcome.LIFTED
+            self._last_outcome = Outcome.LIFTED
+            self._arm_velocity = 0.0
+            self._enter(GraspState.RELEASING, now)
+            self._command(p.open_angle, p.release_speed)
+            self._message = 'lifted and held; releasing' + evidence
+        else:
+            self._finish(Outcome.LIFTED, f'lifted {grasp.lift_height:.4f} m and held '
+                         f'{p.hold_duration:g} s{evidence}')
 
     def _hold_ramp(self, now: float) -> None:
         """Freeze the ramp at the current command (restarts from there later)."""
