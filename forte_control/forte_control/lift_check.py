@@ -21,13 +21,25 @@ what a robot measures:
    count against the lift: with the arm still, only gravity can make an object slip, i.e.
    the object hangs from the fingers (the drop detector watches what happens next).
 
-The static shear of the fingers (distal minus root channels) was considered and is not
-used: in the simulated finger it changes by about 0.003 (normalised) per newton of
-tangential load, below the +-8 % unit trim and temperature differences of the channels,
-and the tangential load of a smooth slide (mu_k x N) looks like the weight of a carried
-object of that size. Optionally, a wrist force/torque sensor gives the vertical load the arm
-carries (``use_wrench``; off by default): it must have grown by ``min_wrench_load`` since
-the lift began.
+3. **A carried object goes down with the fingers; a resting one unloads them.** An object
+   placed exactly centred stays balanced on the table, and fingers can slide along it
+   smoothly (no stick-slip to hear). Its weight is then shared by the table and the
+   fingers' friction, and the tangential (shear) load on the fingers is a friction force,
+   not the weight. The set-down probe tells them apart: the arm lifts ``probe_distance``
+   (2 mm) beyond the lift height, holds, and lowers the same distance. A carried object
+   moves down with the fingers and their tangential load (its weight) does not change; an
+   object the table holds stays where it is, and the fingers' stuck contacts unload by their
+   tangential stiffness x the distance (at most the friction force). The shear pattern of a
+   fin-ray finger is the distal-minus-root difference of its channels (a downward load on the
+   pad raises the distal and lowers the root pressure); the grip (normal force) does not
+   change in a vertical motion, so a change of sum over fingers of (distal - root) of more
+   than ``probe_unload`` during the probe means the table took load back. The absolute
+   shear level is not used: a smooth slide loads the fingers with mu_k x N, just as a carried
+   object of that weight would, and the controller does not know the weight.
+
+Optionally, a wrist force/torque sensor gives the vertical load the arm carries
+(``use_wrench``; off by default): it must have grown by ``min_wrench_load`` since the lift
+began.
 
 The same module answers a second question: when the gripper closed fully without a contact
 flag (the perception's contact is a *rate* of change; a very soft object loads too slowly to
@@ -58,6 +70,10 @@ class LiftCheckParams:
     balance_tolerance: float = 0.015    # plus this fraction of left + right [-]
     min_finger_level: float = 0.01      # each finger must be loaded this much [normalised]
     quiet_time: float = 1.0             # no slip flag in the last quiet_time of the lift [s]
+    probe_distance: float = 0.002       # set-down probe: lift beyond, then lower this [m]
+    probe_settle: float = 0.3           # wait after lowering before judging [s]
+    probe_window: float = 0.1           # averaging of the shear index before / after [s]
+    probe_unload: float = 0.0025        # shear index change that means unloaded [normalised]
     use_wrench: bool = False            # require the wrist load below (needs wrench input)
     min_wrench_load: float = 0.1        # wrist load gained since the lift began [N]
     wrench_timeout: float = 0.1         # wrench freshness bound [s]
@@ -75,8 +91,8 @@ class LiftCheckParams:
                 continue
             if not math.isfinite(value) or value < 0.0:
                 out.append(f'{item.name} must be finite and >= 0, got {value}')
-        if not out and self.balance_window <= 0.0:
-            out.append('balance_window must be > 0')
+        if not out and (self.balance_window <= 0.0 or self.probe_window <= 0.0):
+            out.append('balance_window and probe_window must be > 0')
         return out
 
 
@@ -94,6 +110,18 @@ class LiftVerdict:
 
     carried: bool
     reason: str       # the evidence, with its numbers
+
+
+def shear_index(filtered: tuple[float, ...] | None) -> float | None:
+    """Shear pattern of both fingers: sum over fingers of (distal - root) channel.
+
+    Returns None without 6 finite values. Only its *change* at constant grip is used: the
+    normal load raises distal and root alike in proportion, the tangential load on the pad
+    raises the distal and lowers the root pressure.
+    """
+    if filtered is None or len(filtered) != 6 or not all(math.isfinite(v) for v in filtered):
+        return None
+    return (filtered[0] - filtered[2]) + (filtered[3] - filtered[5])
 
 
 def finger_levels(filtered: tuple[float, ...] | None) -> tuple[float, float] | None:
@@ -132,7 +160,9 @@ class LiftMonitor:
 
     def __init__(self, params: LiftCheckParams) -> None:
         self.params = params
-        self._levels: deque[tuple[float, float, float]] = deque()   # (stamp, left, right)
+        # (stamp, left level, right level, shear index)
+        self._levels: deque[tuple[float, float, float, float]] = deque()
+        self._probe_reference: float | None = None  # shear index before the probe
         self._last_flag = -math.inf       # stamp of the last slip flag while lifting [s]
         self._hold_start: float | None = None
         self._wrench_start: float | None = None
@@ -162,8 +192,9 @@ class LiftMonitor:
         p = self.params
         levels = finger_levels(filtered)
         if levels is not None:
-            self._levels.append((stamp, levels[0], levels[1]))
-            while self._levels and self._levels[0][0] < stamp - p.balance_window:
+            self._levels.append((stamp, levels[0], levels[1], shear_index(filtered)))
+            keep = max(p.balance_window, p.probe_window)
+            while self._levels and self._levels[0][0] < stamp - keep:
                 self._levels.popleft()
         if holding and self._hold_start is None:
             self._hold_start = stamp
@@ -177,6 +208,15 @@ class LiftMonitor:
                 self._wrench_start = wrench.force_z
             self._wrench = wrench
 
+    def _mean_shear(self) -> float | None:
+        recent = [item[3] for item in self._levels
+                  if item[0] >= self._levels[-1][0] - self.params.probe_window]
+        return sum(recent) / len(recent) if recent else None
+
+    def begin_probe(self) -> None:
+        """The set-down probe starts: remember the shear index of the carried grip."""
+        self._probe_reference = self._mean_shear() if self._levels else None
+
     def verdict(self) -> LiftVerdict:
         """Judge the lift from the evidence so far (called when the hold is over)."""
         p = self.params
@@ -184,9 +224,10 @@ class LiftMonitor:
             return LiftVerdict(True, 'lift not verified (verify_lift off)')
         if not self._levels:
             return LiftVerdict(False, 'no tactile data during the lift to verify it')
-        count = len(self._levels)
-        left = sum(item[1] for item in self._levels) / count
-        right = sum(item[2] for item in self._levels) / count
+        recent = [item for item in self._levels
+                  if item[0] >= self._levels[-1][0] - p.balance_window]
+        left = sum(item[1] for item in recent) / len(recent)
+        right = sum(item[2] for item in recent) / len(recent)
         pattern = f'finger levels {left:.4f} / {right:.4f}'
         if min(left, right) < p.min_finger_level:
             return LiftVerdict(False, f'{pattern}: a finger is not loaded')
@@ -199,6 +240,13 @@ class LiftMonitor:
             return LiftVerdict(False, f'{pattern}; slip {end - self._last_flag:.2f} s before '
                                'the end of the lift: the fingers were still sliding')
         evidence = f'{pattern} equal, no slip in the last {p.quiet_time:g} s of the lift'
+        if self._probe_reference is not None:
+            change = self._mean_shear() - self._probe_reference
+            if abs(change) > p.probe_unload:
+                return LiftVerdict(False, f'{evidence}; set down {p.probe_distance * 1000:g} mm'
+                                   f', shear index changed {change:+.4f}: the object does not '
+                                   'hang from the fingers (the table took load)')
+            evidence += f', shear index {change:+.4f} when set down'
         if p.use_wrench:
             if self._wrench is None or self._wrench_start is None \
                     or self._now - self._wrench.stamp > p.wrench_timeout:

@@ -97,6 +97,11 @@ class Controller(IntEnum):
 ACTIVE_STATES = frozenset({GraspState.CLOSING, GraspState.LOADING, GraspState.LIFTING,
                            GraspState.HOLDING, GraspState.RELEASING})
 
+#: Set-down probe: time constant of the approach to the end point [s], and the distance
+#: from it at which the probe counts as arrived [m].
+_PROBE_APPROACH = 0.2
+_PROBE_END = 1e-5
+
 #: The paper's slip response, 0.88 degree [rad].
 PAPER_SLIP_INCREMENT = math.radians(0.88)
 
@@ -413,6 +418,9 @@ class _Grasp:
     last_slip_stamp: float = -math.inf
     drop: DropDetector | None = None
     lift: LiftMonitor | None = None
+    lift_target: float = 0.0           # lift_distance, plus the set-down probe if any [m]
+    probe_phase: str = ''              # '', 'down' (lowering), 'settle'
+    probe_since: float = 0.0           # start of the probe's settle [s]
     free_current: float | None = None  # lowest servo current while closing [A]
     slip_events: int = 0
     tightening: float = 0.0
@@ -863,16 +871,46 @@ class GraspStateMachine:
                               state == GraspState.HOLDING, self._latest.wrench, now)
         if state == GraspState.LIFTING:
             self._lift_arm(now)
-        elif now - grasp.phase_start >= p.hold_duration:
-            self._judge_lift(now)
+        else:
+            self._hold(now)
         return reacted
+
+    def _hold(self, now: float) -> None:
+        """HOLDING: arm still for hold_duration, then the set-down probe, then the verdict."""
+        grasp = self._grasp
+        assert grasp is not None and grasp.lift is not None
+        p = grasp.params
+        probe = grasp.lift_target - p.lift_distance
+        if not grasp.probe_phase:
+            self._arm_velocity = 0.0
+            if now - grasp.phase_start < p.hold_duration:
+                return
+            if probe <= 0.0:
+                self._judge_lift(now)
+                return
+            grasp.probe_phase = 'down'
+            grasp.lift.begin_probe()
+            self._message = f'set-down probe: lowering {probe * 1000:.1f} mm'
+        if grasp.probe_phase == 'down':
+            remaining = grasp.lift_height - p.lift_distance
+            if remaining > _PROBE_END:
+                # slow down exponentially into the end point: stopping a downward motion
+                # accelerates the object upward, and a carried object's friction must carry
+                # m x that acceleration on top of its weight
+                self._arm_velocity = -min(p.lift_speed, remaining / _PROBE_APPROACH)
+                return
+            grasp.probe_phase = 'settle'
+            grasp.probe_since = now
+        self._arm_velocity = 0.0
+        if now - grasp.probe_since >= self._lift_check.probe_settle:
+            self._judge_lift(now)
 
     def _lift_arm(self, now: float) -> None:
         """Arm command while LIFTING: on up to the lift height, then HOLDING."""
         grasp = self._grasp
         assert grasp is not None
         p = grasp.params
-        if grasp.lift_height >= p.lift_distance - 1e-12:
+        if grasp.lift_height >= grasp.lift_target - 1e-12:
             self._arm_velocity = 0.0
             self._enter(GraspState.HOLDING, now)
             self._message = f'lifted {grasp.lift_height:.4f} m, holding'
@@ -961,6 +999,10 @@ class GraspStateMachine:
         self._enter(GraspState.LIFTING, now)
         grasp.drop = DropDetector(grasp.params)
         grasp.lift = LiftMonitor(self._lift_check)
+        probe = self._lift_check.probe_distance if self._lift_check.verify_lift else 0.0
+        if grasp.params.lift_distance + probe > grasp.params.max_lift_distance:
+            probe = 0.0  # no room under the lift cap: judged without the probe
+        grasp.lift_target = grasp.params.lift_distance + probe
         perception = self._latest.perception
         if perception is not None and perception.data_valid \
                 and _fresh(perception.stamp, now, grasp.params.perception_timeout):

@@ -17,6 +17,7 @@ from forte_control.lift_check import (
     WrenchInput,
     closed_on_object_evidence,
     finger_levels,
+    shear_index,
 )
 from forte_control.state_machine import (
     ControlInputs,
@@ -92,6 +93,40 @@ def test_slip_at_the_end_of_the_lift_means_still_sliding():
     assert not verdict.carried and 'sliding' in verdict.reason
     # quiet_time before the hold is enough
     assert lift(LiftMonitor(LiftCheckParams()), EQUAL, flags=(4.95,)).carried
+
+
+def test_shear_index_is_distal_minus_root_of_both_fingers():
+    assert shear_index(EQUAL) == pytest.approx(0.14)
+    assert shear_index(None) is None
+
+
+def set_down(unload: float, params: LiftCheckParams | None = None):
+    """A quiet, balanced lift, then the set-down probe: the fingers' shear pattern
+    (distal up, root down per newton of tangential load) drops by ``unload`` per finger."""
+    monitor = LiftMonitor(params or LiftCheckParams())
+    t = 10.0
+    for _ in range(600):
+        monitor.update(t, EQUAL, False, False)
+        t += DT
+    monitor.begin_probe()
+    d, r = 0.6 * unload, 0.4 * unload  # distal falls, root rises: the difference by unload
+    unloaded = (EQUAL[0] - d, EQUAL[1], EQUAL[2] + r, EQUAL[3] - d, EQUAL[4], EQUAL[5] + r)
+    for k in range(60):
+        pattern = EQUAL if k < 10 else unloaded
+        monitor.update(t, pattern, False, True)
+        t += DT
+    return monitor.verdict()
+
+
+def test_set_down_probe_that_leaves_the_shear_pattern_means_carried():
+    verdict = set_down(0.0005)
+    assert verdict.carried and 'when set down' in verdict.reason
+
+
+def test_set_down_probe_that_unloads_the_fingers_means_the_table_holds_the_object():
+    verdict = set_down(0.003)
+    assert not verdict.carried and 'table took load' in verdict.reason
+    assert '-0.0060' in verdict.reason  # both fingers, distal - root
 
 
 def test_slip_while_holding_does_not_deny_the_lift():
@@ -241,3 +276,40 @@ def test_machine_ends_a_one_sided_lift_in_not_carried():
     world.filtered = EQUAL
     out = world.run(limit=30.0)
     assert out.outcome == Outcome.LIFTED
+
+
+@pytest.mark.parametrize('table_holds', [False, True])
+def test_machine_probes_by_setting_down_and_judges_the_shear_change(table_holds):
+    """Lift 2 mm beyond the lift height, hold, lower back: a resting object unloads the
+    fingers while they go down (shear pattern falls), a carried one goes down with them."""
+    world = World()
+    world.contact = (True, True)
+    world.force = 0.4
+    world.filtered = EQUAL
+    assert world.machine.start(GraspGoal(controller=Controller.FORTE), world.now,
+                               world.inputs())[0]
+    top = 0.0
+    while True:
+        world.now += DT
+        out = world.machine.step(world.inputs(), world.now)
+        top = max(top, out.lift_height)
+        if out.arm_velocity < 0.0 and table_holds:  # lowering onto the table's support
+            world.filtered = (0.097, 0.06, 0.032, 0.097, 0.06, 0.032)
+        if out.state == GraspState.DONE:
+            break
+    assert top == pytest.approx(0.032, abs=1e-4)
+    assert out.lift_height == pytest.approx(0.03, abs=2e-5)
+    if table_holds:
+        assert out.outcome == Outcome.NOT_CARRIED and 'table took load' in out.message
+    else:
+        assert out.outcome == Outcome.LIFTED and 'when set down' in out.message
+
+
+def test_no_probe_without_room_under_the_lift_cap():
+    world = World()
+    world.machine = GraspStateMachine(replace(ControllerParams(), max_lift_distance=0.03))
+    world.contact = (True, True)
+    world.force = 0.4
+    world.filtered = EQUAL
+    out = world.run(limit=30.0)
+    assert out.outcome == Outcome.LIFTED and 'set down' not in out.message

@@ -207,11 +207,15 @@ def test_full_forte_grasp_step_by_step():
     assert out.servo.position == pytest.approx(held - PAPER_SLIP_INCREMENT)
     assert out.servo_changed
     assert out.tightening == pytest.approx(PAPER_SLIP_INCREMENT)
-    # lift to 3 cm -> HOLDING (arm stops) -> DONE with LIFTED after hold_duration
+    # lift to 3 cm + the 2 mm of the set-down probe -> HOLDING (arm stops) -> after
+    # hold_duration down to 3 cm -> DONE with LIFTED (the shear pattern did not change)
     out = rig.run_until(lambda o: o.state == GraspState.HOLDING)
     assert out.arm_velocity == 0.0
-    assert out.lift_height == pytest.approx(0.03, abs=0.005 * DT + 1e-9)
+    assert out.lift_height == pytest.approx(0.032, abs=0.005 * DT + 1e-9)
+    out = rig.run_until(lambda o: o.arm_velocity < 0.0)
+    assert out.state == GraspState.HOLDING and 'set-down probe' in out.message
     out = rig.run_until(lambda o: o.state == GraspState.DONE)
+    assert out.lift_height == pytest.approx(0.03, abs=2e-5)
     assert out.outcome == Outcome.LIFTED and out.finished
     assert rig.machine.last_outcome == Outcome.LIFTED
     assert 'equal' in out.message  # the evidence that the object was carried
@@ -444,8 +448,10 @@ def test_goal_overrides_apply():
     rig = Rig()
     rig.to_lifting(lift_distance=0.01, lift_speed=0.01, initial_force=0.5)
     out = rig.run_until(lambda o: o.state == GraspState.HOLDING)
-    assert out.lift_height == pytest.approx(0.01, abs=0.01 * DT + 1e-9)
+    assert out.lift_height == pytest.approx(0.012, abs=0.01 * DT + 1e-9)  # + probe
     assert out.target_force == pytest.approx(0.5, abs=0.2)
+    out = rig.run_until(lambda o: o.state == GraspState.DONE)
+    assert out.lift_height == pytest.approx(0.01, abs=2e-5)
 
 
 @pytest.mark.parametrize('state', [GraspState.CLOSING, GraspState.LOADING,
