@@ -71,9 +71,9 @@ class LiftCheckParams:
     min_finger_level: float = 0.01      # each finger must be loaded this much [normalised]
     quiet_time: float = 1.0             # no slip flag in the last quiet_time of the lift [s]
     probe_distance: float = 0.002       # set-down probe: lift beyond, then lower this [m]
-    probe_settle: float = 0.3           # wait after lowering before judging [s]
-    probe_window: float = 0.1           # averaging of the shear index before / after [s]
-    probe_unload: float = 0.0025        # shear index change that means unloaded [normalised]
+    probe_settle: float = 0.4           # wait after lowering before judging [s]
+    probe_window: float = 0.3           # averaging of the shear index before / after [s]
+    probe_unload: float = 0.0045        # shear index change that means unloaded [normalised]
     use_wrench: bool = False            # require the wrist load below (needs wrench input)
     min_wrench_load: float = 0.1        # wrist load gained since the lift began [N]
     wrench_timeout: float = 0.1         # wrench freshness bound [s]

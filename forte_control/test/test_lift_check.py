@@ -111,7 +111,7 @@ def set_down(unload: float, params: LiftCheckParams | None = None):
     monitor.begin_probe()
     d, r = 0.6 * unload, 0.4 * unload  # distal falls, root rises: the difference by unload
     unloaded = (EQUAL[0] - d, EQUAL[1], EQUAL[2] + r, EQUAL[3] - d, EQUAL[4], EQUAL[5] + r)
-    for k in range(60):
+    for k in range(80):
         pattern = EQUAL if k < 10 else unloaded
         monitor.update(t, pattern, False, True)
         t += DT
