@@ -315,7 +315,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
               goal: GraspGoal | None = None, model=None, pipeline_config=None,
               chunk_samples: int = 20, warmup: float = 0.6, tare_duration: float = 0.5,
               settle: float = 1.0, max_duration: float = 60.0, success_height: float = 0.005,
-              record_traces: bool = False) -> TrialResult:
+              record_traces: bool = False, lift_check=None) -> TrialResult:
     """Run one closed-loop grasp trial of ``object_name`` with ``controller``.
 
     Parameters
@@ -349,6 +349,9 @@ def run_trial(object_name: str, controller, seed: int = 0,
         Bound on the simulated grasp time [s].
     success_height : float
         Minimum true object height for success [m].
+    lift_check : forte_control.lift_check.LiftCheckParams, optional
+        Thresholds of the lift verification (default: its defaults; ``verify_lift=False``
+        for the controller before it, which claimed LIFTED from the commanded lift alone).
     record_traces : bool
         Keep per-update traces (``TrialResult.traces``): ``time`` (k,) [s since goal],
         ``filtered`` (k, 6), ``force_estimate`` (k,) [N] (NaN if invalid), ``force_true``
@@ -376,7 +379,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
     config = pipeline_config or PipelineConfig(tare_duration=tare_duration)
     pipeline = PerceptionPipeline(config, model)
     scene = make_scene('grasp', object_name=object_name, seed=seed, trial=trial)
-    machine = GraspStateMachine(params or ControllerParams())
+    machine = GraspStateMachine(params or ControllerParams(), lift_check)
     dt = chunk_samples * SAMPLE_PERIOD
 
     servo = scene.initial_angle
