@@ -1,10 +1,11 @@
 """Does the gripper carry the object? Evidence checks of the grasp state machine (no rclpy).
 
-The lift height the controller knows is the integral of the arm velocity it commanded; it
-says nothing about the object. When the grip is too weak the fingers slide up an object
-that stays on the table, and FORTE's tightenings make every grip signal (force, deformation,
-joint current) rise exactly as in a good grasp. Two physical facts separate the cases with
-what a robot measures:
+:class:`DropDetector` watches for a held object's load *disappearing* (LIFTING, HOLDING).
+It cannot see an object that never left the table: the lift height the controller knows is
+the integral of the arm velocity it commanded, and when the grip is too weak the fingers
+slide up an object that stays on the table while FORTE's tightenings make every grip signal
+(force, deformation, joint current) rise exactly as in a good grasp. :class:`LiftMonitor`
+judges the lift from three physical facts and what a robot measures:
 
 1. **A free object is centred by the fingers.** Once the object hangs from the fingers the
    only horizontal forces on it are the two finger normal forces, so they are equal
@@ -52,8 +53,12 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
 
-__all__ = ['LiftCheckParams', 'LiftMonitor', 'LiftVerdict', 'WrenchInput',
+if TYPE_CHECKING:  # pragma: no cover - type hints only (state_machine imports this module)
+    from .state_machine import ControllerParams, PerceptionInput
+
+__all__ = ['DropDetector', 'LiftCheckParams', 'LiftMonitor', 'LiftVerdict', 'WrenchInput',
            'closed_on_object_evidence', 'deformation_level', 'finger_levels']
 
 
@@ -299,3 +304,51 @@ def closed_on_object_evidence(params: LiftCheckParams, command: float, theta: fl
         found.append(f'servo current {current:.3f} A, +{current - free_current:.3f} A over '
                      'free closing')
     return '; '.join(found)
+
+
+@dataclass
+class DropDetector:
+    """Detect a drop from the sensors during LIFTING / HOLDING.
+
+    Two signals are compared with a reference taken while the object is held (the maximum
+    seen since the lift started): the estimated force (when valid) and the deformation level
+    (mean absolute tared filtered value over the 6 channels, when given). A drop is declared
+    when either signal stays below its fraction of the reference for ``confirm_time``;
+    optionally also when both contact flags are false for that long. A detector is armed only
+    when its reference exceeds a minimum, so noise on an empty gripper never "drops".
+    """
+
+    params: ControllerParams   # drop_* fields
+    reference_force: float = 0.0
+    reference_level: float = 0.0
+    low_since: float | None = None
+    reason: str = ''
+
+    def update(self, perception: PerceptionInput, now: float) -> bool:
+        """Feed one fresh, valid perception sample; return True once a drop is confirmed."""
+        p = self.params
+        reasons = []
+        if perception.force_valid and math.isfinite(perception.force):
+            self.reference_force = max(self.reference_force, perception.force)
+            if (self.reference_force >= p.drop_min_reference_force
+                    and perception.force < p.drop_force_fraction * self.reference_force):
+                reasons.append(f'force {perception.force:.3f} N < {p.drop_force_fraction:g} x '
+                               f'{self.reference_force:.3f} N')
+        if perception.filtered is not None:
+            values = [abs(v) for v in perception.filtered if math.isfinite(v)]
+            if values:
+                level = sum(values) / len(values)
+                self.reference_level = max(self.reference_level, level)
+                if (self.reference_level >= p.drop_min_reference_level
+                        and level < p.drop_level_fraction * self.reference_level):
+                    reasons.append(f'deformation {level:.4f} < {p.drop_level_fraction:g} x '
+                                   f'{self.reference_level:.4f}')
+        if p.drop_on_contact_loss and not any(perception.contact):
+            reasons.append('contact lost on both fingers')
+        if not reasons:
+            self.low_since = None
+            return False
+        if self.low_since is None:
+            self.low_since = now
+        self.reason = '; '.join(reasons)
+        return now - self.low_since >= p.drop_confirm_time

@@ -38,7 +38,13 @@ import math
 from dataclasses import dataclass, fields, replace
 from enum import IntEnum, IntFlag
 
-from .lift_check import LiftCheckParams, LiftMonitor, WrenchInput, closed_on_object_evidence
+from .lift_check import (
+    DropDetector,
+    LiftCheckParams,
+    LiftMonitor,
+    WrenchInput,
+    closed_on_object_evidence,
+)
 
 # ---------------------------------------------------------------------------------------
 # Constants mirrored from forte_msgs (tests check they equal the message constants).
@@ -342,58 +348,6 @@ class ControlOutputs:
     force_valid: bool
     finished: bool                 # the grasp reached its outcome in this step
     message: str
-
-
-# ---------------------------------------------------------------------------------------
-# Drop detection
-
-
-@dataclass
-class DropDetector:
-    """Detect a drop from the sensors during LIFTING / HOLDING.
-
-    Two signals are compared with a reference taken while the object is held (the maximum
-    seen since the lift started): the estimated force (when valid) and the deformation level
-    (mean absolute tared filtered value over the 6 channels, when given). A drop is declared
-    when either signal stays below its fraction of the reference for ``confirm_time``;
-    optionally also when both contact flags are false for that long. A detector is armed only
-    when its reference exceeds a minimum, so noise on an empty gripper never "drops".
-    """
-
-    params: ControllerParams
-    reference_force: float = 0.0
-    reference_level: float = 0.0
-    low_since: float | None = None
-    reason: str = ''
-
-    def update(self, perception: PerceptionInput, now: float) -> bool:
-        """Feed one fresh, valid perception sample; return True once a drop is confirmed."""
-        p = self.params
-        reasons = []
-        if perception.force_valid and math.isfinite(perception.force):
-            self.reference_force = max(self.reference_force, perception.force)
-            if (self.reference_force >= p.drop_min_reference_force
-                    and perception.force < p.drop_force_fraction * self.reference_force):
-                reasons.append(f'force {perception.force:.3f} N < {p.drop_force_fraction:g} x '
-                               f'{self.reference_force:.3f} N')
-        if perception.filtered is not None:
-            values = [abs(v) for v in perception.filtered if math.isfinite(v)]
-            if values:
-                level = sum(values) / len(values)
-                self.reference_level = max(self.reference_level, level)
-                if (self.reference_level >= p.drop_min_reference_level
-                        and level < p.drop_level_fraction * self.reference_level):
-                    reasons.append(f'deformation {level:.4f} < {p.drop_level_fraction:g} x '
-                                   f'{self.reference_level:.4f}')
-        if p.drop_on_contact_loss and not any(perception.contact):
-            reasons.append('contact lost on both fingers')
-        if not reasons:
-            self.low_since = None
-            return False
-        if self.low_since is None:
-            self.low_since = now
-        self.reason = '; '.join(reasons)
-        return now - self.low_since >= p.drop_confirm_time
 
 
 # ---------------------------------------------------------------------------------------
