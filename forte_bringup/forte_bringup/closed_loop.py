@@ -85,7 +85,11 @@ class TrialResult:
     outcome : str
         The controller's own outcome (Grasp result constant name: LIFTED, DROPPED, ...).
     object_state : str
-        Ground-truth object state at the end (HELD, DROPPED, BROKEN, CRUSHED, RESTING).
+        Ground-truth object state at the end (HELD, DROPPED, BROKEN, CRUSHED, RESTING), after
+        ``settle`` seconds with the last commands.
+    object_state_at_outcome : str
+        Ground-truth object state at the update in which the controller reached its outcome
+        (what its claim is about; the object may still fall during the settle time).
     success : bool
         The controller completed the lift (outcome LIFTED) and the ground truth agrees: the
         object ends held (neither dropped, broken nor crushed) at least ``success_height``
@@ -153,6 +157,7 @@ class TrialResult:
     slip_true: bool = False
     slip_predicted: bool = False
     lift_start_time: float = math.nan
+    object_state_at_outcome: str = ''
     duration: float = math.nan
     simulated_seconds: float = 0.0
     wall_seconds: float = 0.0
@@ -300,12 +305,17 @@ def _controller(value) -> Controller:
     return Controller(int(value))
 
 
+def _state_name(value) -> str:
+    """SimGroundTruth object_state constant -> name."""
+    return OBJECT_STATE_NAMES.get(int(value), str(int(value)))
+
+
 def run_trial(object_name: str, controller, seed: int = 0,
               params: ControllerParams | None = None, *, trial: int = 0,
               goal: GraspGoal | None = None, model=None, pipeline_config=None,
               chunk_samples: int = 20, warmup: float = 0.6, tare_duration: float = 0.5,
               settle: float = 1.0, max_duration: float = 60.0, success_height: float = 0.005,
-              record_traces: bool = False) -> TrialResult:
+              record_traces: bool = False, lift_check=None) -> TrialResult:
     """Run one closed-loop grasp trial of ``object_name`` with ``controller``.
 
     Parameters
@@ -339,6 +349,9 @@ def run_trial(object_name: str, controller, seed: int = 0,
         Bound on the simulated grasp time [s].
     success_height : float
         Minimum true object height for success [m].
+    lift_check : forte_control.lift_check.LiftCheckParams, optional
+        Thresholds of the lift verification (default: its defaults; ``verify_lift=False``
+        for the controller before it, which claimed LIFTED from the commanded lift alone).
     record_traces : bool
         Keep per-update traces (``TrialResult.traces``): ``time`` (k,) [s since goal],
         ``filtered`` (k, 6), ``force_estimate`` (k,) [N] (NaN if invalid), ``force_true``
@@ -366,7 +379,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
     config = pipeline_config or PipelineConfig(tare_duration=tare_duration)
     pipeline = PerceptionPipeline(config, model)
     scene = make_scene('grasp', object_name=object_name, seed=seed, trial=trial)
-    machine = GraspStateMachine(params or ControllerParams())
+    machine = GraspStateMachine(params or ControllerParams(), lift_check)
     dt = chunk_samples * SAMPLE_PERIOD
 
     servo = scene.initial_angle
@@ -389,7 +402,9 @@ def run_trial(object_name: str, controller, seed: int = 0,
             slip_active=bool(out.slip_active), data_valid=bool(out.data_valid),
             filtered=tuple(float(v) for v in out.filtered),
             finger_variance=(float(out.finger_variance[0]), float(out.finger_variance[1])))
-        joint = JointInput(stamp=stamp, theta=float(truth.joint_position[-1]))
+        # what the servos report: angle and current (never the scene's ground truth)
+        joint = JointInput(stamp=stamp, theta=float(truth.joint_position[-1]),
+                           effort=float(np.mean(scene.joint_effort)))
         return ControlInputs(perception=perception, joint=joint)
 
     goal = GraspGoal(**{**(goal.__dict__ if goal is not None else {}), 'controller': kind})
@@ -409,6 +424,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
     max_true_force = 0.0
     max_estimated = -math.inf
     finished_at = math.nan
+    state_at_outcome = ''
     outputs = machine.step(inputs_from(out, truth, t0), t0)
     if outputs.servo is not None:
         servo = outputs.servo.position
@@ -444,6 +460,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
                 lift_start = t
             if outputs.state not in ACTIVE_STATES:
                 finished_at = t
+                state_at_outcome = _state_name(truth.object_state[-1])
                 end_time = min(max_duration + settle, t + settle)
         if record_traces:
             traces['time'].append(t)
@@ -469,10 +486,11 @@ def run_trial(object_name: str, controller, seed: int = 0,
             servo = outputs.servo.position if outputs.servo is not None else servo
             arm_velocity = 0.0
             finished_at = t
+            state_at_outcome = _state_name(truth.object_state[-1])
             end_time = t + settle
 
     final = truth.latest()
-    object_state = OBJECT_STATE_NAMES.get(final['object_state'], str(final['object_state']))
+    object_state = _state_name(final['object_state'])
     during_lift = (lambda times: [x for x in times if x >= lift_start]) \
         if not math.isnan(lift_start) else (lambda times: [])
     outcome = Outcome(int(outputs.outcome)).name
@@ -491,6 +509,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
         slip_onset_types=onset_types, slip_flag_times=flag_times,
         slip_reaction_times=reaction_times,
         slip_true=bool(during_lift(onset_times)), slip_predicted=bool(during_lift(flag_times)),
-        lift_start_time=lift_start, duration=finished_at,
+        lift_start_time=lift_start, object_state_at_outcome=state_at_outcome,
+        duration=finished_at,
         simulated_seconds=float(scene.time), wall_seconds=time.perf_counter() - wall_start,
         traces=traces)

@@ -7,7 +7,10 @@
    spread over ``--jobs`` processes. Tables: grasp success per category and overall;
    FORTE's trial-wise slip detection accuracy / precision / recall / F1 against the
    simulator's ground truth; the slip detection latency distribution (true onset to the
-   first slip flag, p50 / p90 / max).
+   first slip flag, p50 / p90 / max); the confusion matrix of each controller's own
+   outcome against the simulator's ground-truth object state (at the end of the trial, and
+   at the moment of the outcome), with the trials in which the controller contradicts the
+   truth on whether the object was carried.
 2. Force estimation: 10-fold trial-wise cross-validation of the SVR force model on the
    simulated calibration rig (6 indentors), with the history features (24) and without
    them (latest frame only, 6), as in the paper.
@@ -34,6 +37,8 @@ import numpy as np
 
 from forte_bringup.metrics import (
     TrialRecord,
+    confusion_json,
+    confusion_table,
     force_table,
     latency_stats,
     latency_table,
@@ -108,6 +113,7 @@ def record_from_result(result: object, task: Task) -> TrialRecord:
     latencies, missed = detection_latencies(onsets, flags) if onsets else ([], 0)
     outcome = _get(result, 'outcome', '')
     state = _get(result, 'object_state', '')
+    at_outcome = _get(result, 'object_state_at_outcome', '') or ''
     return TrialRecord(
         object_name=task.object_name, category=task.category, controller=task.controller,
         trial=task.trial, success=bool(_get(result, 'success', False)),
@@ -118,6 +124,7 @@ def record_from_result(result: object, task: Task) -> TrialRecord:
         latencies=latencies, missed_onsets=missed,
         max_true_force=float(_get(result, 'max_true_force', math.nan)),
         duration=float(_get(result, 'duration', math.nan)),
+        object_state_at_outcome=str(getattr(at_outcome, 'name', at_outcome)),
     )
 
 
@@ -247,6 +254,7 @@ def main(argv: list[str] | None = None) -> int:
         stats = latency_stats([v for r in forte for v in r.latencies],
                               sum(r.missed_onsets for r in forte))
         results['grasp'] = summary_json(records)
+        results['truth'] = confusion_json(records)
         results['slip_latency'] = stats
         results['trials'] = [r.to_dict() for r in records]
         table = result_table(records)
@@ -255,8 +263,20 @@ def main(argv: list[str] | None = None) -> int:
               + table, flush=True)
         print('\nSlip detection latency, true onset to first flag (FORTE trials)\n' + latency,
               flush=True)
+        truth = confusion_table(records)
+        truth_at_outcome = confusion_table(records, at_outcome=True)
+        print('\nController outcome against the ground-truth object state at the end of the '
+              'trial (! = contradicts the truth on whether the object was carried)\n' + truth,
+              flush=True)
+        print('\nSame, ground truth at the moment of the outcome\n' + truth_at_outcome,
+              flush=True)
         markdown += ['## Grasp success and slip detection', '', table, '',
                      '## Slip detection latency (onset to flag)', '', latency, '',
+                     '## Controller outcome against the ground truth', '',
+                     'Ground truth at the end of the trial (1 s after the outcome); `!` marks '
+                     'a contradiction on whether the object was carried (LIFTED vs RESTING '
+                     'or DROPPED, DROPPED or NOT_CARRIED vs HELD).', '', truth, '',
+                     'Ground truth at the moment of the outcome:', '', truth_at_outcome, '',
                      f'{len(tasks)} trials in {elapsed:.1f} s on {args.jobs} process(es).', '']
 
     if not args.skip_force:

@@ -13,6 +13,11 @@ performance" (tables/result_table.tex) and its conventions:
   positives (the paper: "correct abstention from false positives"); recall (and hence F1)
   is 0.0 when there are no true positives to find, which is how the paper's
   fragile / deformable row reads (1.00 / 1.00 / 0.00 / 0.00).
+
+And one table the paper does not have: the confusion matrix of the controller's own outcome
+against the simulator's ground-truth object state, per controller, with the number of trials
+in which the controller contradicts the truth on whether the object was carried
+(:func:`contradicts_carried`).
 """
 from __future__ import annotations
 
@@ -70,6 +75,8 @@ class TrialRecord:
         Grasp result outcome name (``LIFTED``, ``DROPPED``, ...).
     object_state : str
         Ground-truth object state at the end (``HELD``, ``DROPPED``, ``BROKEN``, ...).
+    object_state_at_outcome : str
+        Ground-truth object state when the controller reached its outcome ('' if unknown).
     slip_true : bool
         Ground truth: at least one slip onset during the lift.
     slip_predicted : bool
@@ -98,6 +105,7 @@ class TrialRecord:
     missed_onsets: int = 0
     max_true_force: float = float('nan')
     duration: float = float('nan')
+    object_state_at_outcome: str = ''
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary."""
@@ -365,4 +373,110 @@ def summary_json(records: Sequence[TrialRecord]) -> dict:
                      'recall': scores.recall, 'f1': scores.f1},
             'paper': PAPER_RESULTS.get(category),
         }
+    return out
+
+
+# --- controller outcome against the ground truth ------------------------------------------
+#: Grasp outcomes in table order (forte_msgs/action/Grasp result constants).
+OUTCOME_ORDER = ('LIFTED', 'NOT_CARRIED', 'DROPPED', 'NO_CONTACT', 'CLOSED_ON_OBJECT',
+                 'FORCE_LIMIT', 'TIMEOUT', 'CANCELED', 'FAULT')
+#: Ground-truth object states in table order (forte_msgs/msg/SimGroundTruth OBJECT_*).
+TRUTH_ORDER = ('HELD', 'RESTING', 'DROPPED', 'BROKEN', 'CRUSHED')
+
+
+def contradicts_carried(outcome: str, truth: str) -> bool:
+    """True when the outcome and the truth disagree on whether the object was carried.
+
+    LIFTED claims the object is carried: wrong if it is on the table (RESTING) or fell
+    (DROPPED). DROPPED and NOT_CARRIED claim it is not: wrong if it is HELD. A BROKEN or
+    CRUSHED object may or may not hang in the grasp (the truth does not say), so no claim
+    about carrying is checked against those states.
+    """
+    if outcome == 'LIFTED':
+        return truth in ('RESTING', 'DROPPED')
+    if outcome in ('DROPPED', 'NOT_CARRIED'):
+        return truth == 'HELD'
+    return False
+
+
+def confusion(records: Iterable[TrialRecord], controller: str,
+              at_outcome: bool = False) -> dict[str, dict[str, int]]:
+    """Counts of (controller outcome, ground-truth object state) of one controller.
+
+    Parameters
+    ----------
+    records : iterable of TrialRecord
+    controller : str
+        Controller key; other records are ignored.
+    at_outcome : bool
+        Use the truth at the controller's outcome instead of the truth at the end of the
+        trial (records without it fall back to the final truth).
+
+    Returns
+    -------
+    dict
+        ``{outcome: {truth: count}}`` with only the pairs that occurred.
+    """
+    table: dict[str, dict[str, int]] = {}
+    for record in records:
+        if record.controller != controller:
+            continue
+        truth = (record.object_state_at_outcome or record.object_state) if at_outcome \
+            else record.object_state
+        row = table.setdefault(record.outcome, {})
+        row[truth] = row.get(truth, 0) + 1
+    return table
+
+
+def contradiction_count(matrix: dict[str, dict[str, int]]) -> tuple[int, int]:
+    """(trials contradicting the truth on carrying, trials) of a :func:`confusion` matrix."""
+    bad = sum(n for outcome, row in matrix.items() for truth, n in row.items()
+              if contradicts_carried(outcome, truth))
+    total = sum(n for row in matrix.values() for n in row.values())
+    return bad, total
+
+
+def confusion_table(records: Sequence[TrialRecord], at_outcome: bool = False) -> str:
+    """Markdown confusion matrices, one block of rows per controller, and the contradictions.
+
+    Rows: controller outcome (only those that occurred); columns: ground-truth object state.
+    Each controller ends with a row ``contradicts truth`` counting the trials in which the
+    outcome and the truth disagree on whether the object was carried.
+    """
+    truths = list(TRUTH_ORDER) + sorted({(r.object_state_at_outcome or r.object_state)
+                                         if at_outcome else r.object_state
+                                         for r in records} - set(TRUTH_ORDER))
+    header = ['controller', 'outcome \\ truth', *truths, 'total']
+    rows = []
+    for controller, label in CONTROLLER_LABELS.items():
+        matrix = confusion(records, controller, at_outcome)
+        if not matrix:
+            continue
+        outcomes = [o for o in OUTCOME_ORDER if o in matrix] + sorted(
+            set(matrix) - set(OUTCOME_ORDER))
+        for outcome in outcomes:
+            row = matrix[outcome]
+            cells = []
+            for truth in truths:
+                n = row.get(truth, 0)
+                mark = '!' if n and contradicts_carried(outcome, truth) else ''
+                cells.append(f'{n}{mark}' if n else '.')
+            rows.append([label, outcome, *cells, str(sum(row.values()))])
+        bad, total = contradiction_count(matrix)
+        rows.append([label, '**contradicts truth**', *([''] * len(truths)),
+                     f'**{bad}/{total} ({100.0 * bad / total:.1f}%)**'])
+    return _table(header, rows)
+
+
+def confusion_json(records: Sequence[TrialRecord]) -> dict:
+    """Confusion matrices (final truth and truth at the outcome) and contradiction counts."""
+    out = {}
+    for controller in CONTROLLER_LABELS:
+        entry = {}
+        for key, at_outcome in (('final', False), ('at_outcome', True)):
+            matrix = confusion(records, controller, at_outcome)
+            bad, total = contradiction_count(matrix)
+            entry[key] = {'matrix': matrix, 'contradictions': bad, 'trials': total}
+        if entry['final']['trials']:
+            out[controller] = entry
     return out

@@ -78,10 +78,12 @@ class Watcher(Node):
         super().__init__('graph_probe', context=context)
         from sensor_msgs.msg import JointState
 
-        from forte_msgs.msg import GraspState, TactileFrames, TactileState
+        from forte_msgs.msg import GraspState, SimGroundTruth, TactileFrames, TactileState
 
         self.counts = dict.fromkeys(COUNTED, 0)
         self.last_grasp_state = None
+        #: Latest ``sim/ground_truth`` (forte_msgs/SimGroundTruth) of the simulated scene.
+        self.truth = None
         self.joint_positions: list[float] = []
         best_effort = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
         self.create_subscription(TactileFrames, 'tactile/frames',
@@ -93,6 +95,8 @@ class Watcher(Node):
         self.create_subscription(GraspState, 'grasp/state', self._on_grasp_state,
                                  QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                                             durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        self.create_subscription(SimGroundTruth, 'sim/ground_truth', self._on_truth,
+                                 QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE))
 
     # -- counting ---------------------------------------------------------------------------
     def _count(self, topic: str) -> None:
@@ -109,6 +113,9 @@ class Watcher(Node):
     def _on_grasp_state(self, message: Any) -> None:
         self.counts['grasp/state'] += 1
         self.last_grasp_state = message
+
+    def _on_truth(self, message: Any) -> None:
+        self.truth = message
 
     # -- services ---------------------------------------------------------------------------
     def call(self, service_type: Any, name: str, request: Any, timeout: float) -> Any:

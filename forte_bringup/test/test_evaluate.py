@@ -98,6 +98,10 @@ def test_record_from_result_reads_attributes_and_dicts():
     record = record_from_result(Result(), Task('soda_can', 'slippery', 'FORTE', 3, 0))
     assert record.success and record.slip_true and not record.slip_predicted
     assert record.outcome == 'LIFTED' and record.object_state == 'HELD'
+    assert record.object_state_at_outcome == ''
+    Result.object_state_at_outcome = 'HELD'
+    assert record_from_result(Result(), Task('soda_can', 'slippery', 'FORTE', 3, 0)
+                              ).object_state_at_outcome == 'HELD'
     assert record.max_true_force == 1.5 and record.trial == 3
     empty = record_from_result({}, Task('soda_can', 'slippery', 'FORTE', 0, 0))
     assert not empty.success and not empty.slip_true and np.isnan(empty.duration)
@@ -145,3 +149,10 @@ def test_quick_evaluation_end_to_end(tmp_path, capsys):
     assert len(data['trials']) == 4 * 2 * 3
     overall = data['grasp']['overall']['success']
     assert sum(entry['trials'] for entry in overall.values()) == 24
+    # the controller's outcome against the simulator's truth, per controller
+    assert 'contradicts truth' in printed and 'outcome \\ truth' in printed
+    for controller in ('FORTE', 'NO_SLIP', 'ON_OFF'):
+        entry = data['truth'][controller]
+        assert entry['final']['trials'] == entry['at_outcome']['trials'] == 8
+        assert sum(sum(row.values()) for row in entry['final']['matrix'].values()) == 8
+    assert all(trial['object_state_at_outcome'] for trial in data['trials'])

@@ -11,6 +11,11 @@ from forte_bringup.metrics import (
     Rate,
     SlipScores,
     TrialRecord,
+    confusion,
+    confusion_json,
+    confusion_table,
+    contradiction_count,
+    contradicts_carried,
     detection_latencies,
     force_table,
     latency_stats,
@@ -127,3 +132,49 @@ def test_force_table_shows_ours_and_paper():
     table = force_table({'with_history': {'rmse': 0.1234, 'mae': 0.0987}})
     assert '0.123' in table and '0.099' in table and '0.187' in table and '0.211' in table
     assert 'n/a' in table  # the missing without-history entry
+
+
+def outcome_record(outcome, truth, controller='FORTE', at_outcome=''):
+    return TrialRecord(object_name='soda_can', category='slippery', controller=controller,
+                       trial=0, success=outcome == 'LIFTED' and truth == 'HELD',
+                       outcome=outcome, object_state=truth,
+                       object_state_at_outcome=at_outcome)
+
+
+@pytest.mark.parametrize('outcome, truth, wrong', [
+    ('LIFTED', 'HELD', False), ('LIFTED', 'RESTING', True), ('LIFTED', 'DROPPED', True),
+    ('LIFTED', 'CRUSHED', False),        # crushed in the grasp: carrying not judged
+    ('NOT_CARRIED', 'RESTING', False), ('NOT_CARRIED', 'HELD', True),
+    ('DROPPED', 'DROPPED', False), ('DROPPED', 'RESTING', False), ('DROPPED', 'HELD', True),
+    ('NO_CONTACT', 'RESTING', False), ('FAULT', 'HELD', False),
+])
+def test_contradiction_on_carrying(outcome, truth, wrong):
+    assert contradicts_carried(outcome, truth) is wrong
+
+
+def test_confusion_matrix_known_answer():
+    records = ([outcome_record('LIFTED', 'HELD')] * 5
+               + [outcome_record('LIFTED', 'RESTING', at_outcome='HELD')]
+               + [outcome_record('NOT_CARRIED', 'RESTING')] * 3
+               + [outcome_record('DROPPED', 'HELD')]
+               + [outcome_record('LIFTED', 'HELD', controller='ON_OFF')] * 2)
+    matrix = confusion(records, 'FORTE')
+    assert matrix == {'LIFTED': {'HELD': 5, 'RESTING': 1}, 'NOT_CARRIED': {'RESTING': 3},
+                      'DROPPED': {'HELD': 1}}
+    assert contradiction_count(matrix) == (2, 10)
+    # at the moment of the outcome the one that fell later was still held
+    assert confusion(records, 'FORTE', at_outcome=True)['LIFTED'] == {'HELD': 6}
+    assert contradiction_count(confusion(records, 'FORTE', at_outcome=True)) == (1, 10)
+    data = confusion_json(records)
+    assert set(data) == {'FORTE', 'ON_OFF'}
+    assert data['FORTE']['final']['contradictions'] == 2
+    assert data['FORTE']['at_outcome']['contradictions'] == 1
+    assert data['ON_OFF']['final'] == {'matrix': {'LIFTED': {'HELD': 2}},
+                                       'contradictions': 0, 'trials': 2}
+    table = confusion_table(records)
+    lines = table.splitlines()
+    assert [c.strip() for c in lines[0].split('|')[3:-1]] == [
+        'HELD', 'RESTING', 'DROPPED', 'BROKEN', 'CRUSHED', 'total']
+    lifted = next(line for line in lines if 'FORTE' in line and 'LIFTED' in line)
+    assert [c.strip() for c in lifted.split('|')[3:8]] == ['5', '1!', '.', '.', '.']
+    assert '**2/10 (20.0%)**' in table and '**0/2 (0.0%)**' in table

@@ -16,6 +16,11 @@ The procedure follows the results section of the FORTE paper:
    goal asked for it.
 
 Drops are detected from the sensors during LIFTING and HOLDING (see :class:`DropDetector`).
+The commanded lift proves nothing about the object: at the end of the hold the evidence of
+the lift (:mod:`.lift_check`: both fingers loaded equally, as only a free object can be, and
+no slip in the last part of the lift) decides between LIFTED and NOT_CARRIED. Closing fully
+without a contact flag ends in NO_CONTACT only if nothing was squeezed (joint not blocked,
+no deformation, force or current rise); else CLOSED_ON_OBJECT.
 NO_SLIP runs the same procedure without the slip reaction; ON_OFF closes fully at constant
 speed without sensing and lifts (its sensors only decide the recorded outcome).
 
@@ -44,6 +49,13 @@ from forte_control.parameters import (  # noqa: F401 - HARD_MAX_* re-exported
     HARD_MAX_SLIP_INCREMENT,
     HARD_MAX_TIGHTENING,
     range_problems,
+)
+from .lift_check import (
+    DropDetector,
+    LiftCheckParams,
+    LiftMonitor,
+    WrenchInput,
+    closed_on_object_evidence,
 )
 
 # ---------------------------------------------------------------------------------------
@@ -87,6 +99,8 @@ class Outcome(IntEnum):
     TIMEOUT = 5
     CANCELED = 6
     FAULT = 7
+    NOT_CARRIED = 8
+    CLOSED_ON_OBJECT = 9
 
 
 class Controller(IntEnum):
@@ -100,6 +114,11 @@ class Controller(IntEnum):
 #: States in which a grasp is in progress (motion may be commanded).
 ACTIVE_STATES = frozenset({GraspState.CLOSING, GraspState.LOADING, GraspState.LIFTING,
                            GraspState.HOLDING, GraspState.RELEASING})
+
+#: Set-down probe: time constant of the approach to the end point [s], and the distance
+#: from it at which the probe counts as arrived [m].
+_PROBE_APPROACH = 0.2
+_PROBE_END = 1e-5
 
 #: The paper's slip response, 0.88 degree [rad].
 PAPER_SLIP_INCREMENT = math.radians(0.88)
@@ -255,6 +274,7 @@ class JointInput:
     stamp: float                 # sample time [s]
     theta: float                 # servo angle [rad], 0 = fully closed
     servo_error: bool = False    # hardware error reported by the driver
+    effort: float | None = None  # servo current [A] (mean of the servos), None = not reported
 
 
 @dataclass(frozen=True)
@@ -263,6 +283,7 @@ class ControlInputs:
 
     perception: PerceptionInput | None = None
     joint: JointInput | None = None
+    wrench: WrenchInput | None = None   # wrist load, used only with LiftCheckParams.use_wrench
 
 
 @dataclass(frozen=True)
@@ -297,58 +318,6 @@ class ControlOutputs:
 
 
 # ---------------------------------------------------------------------------------------
-# Drop detection
-
-
-@dataclass
-class DropDetector:
-    """Detect a drop from the sensors during LIFTING / HOLDING.
-
-    Two signals are compared with a reference taken while the object is held (the maximum
-    seen since the lift started): the estimated force (when valid) and the deformation level
-    (mean absolute tared filtered value over the 6 channels, when given). A drop is declared
-    when either signal stays below its fraction of the reference for ``confirm_time``;
-    optionally also when both contact flags are false for that long. A detector is armed only
-    when its reference exceeds a minimum, so noise on an empty gripper never "drops".
-    """
-
-    params: ControllerParams
-    reference_force: float = 0.0
-    reference_level: float = 0.0
-    low_since: float | None = None
-    reason: str = ''
-
-    def update(self, perception: PerceptionInput, now: float) -> bool:
-        """Feed one fresh, valid perception sample; return True once a drop is confirmed."""
-        p = self.params
-        reasons = []
-        if perception.force_valid and math.isfinite(perception.force):
-            self.reference_force = max(self.reference_force, perception.force)
-            if (self.reference_force >= p.drop_min_reference_force
-                    and perception.force < p.drop_force_fraction * self.reference_force):
-                reasons.append(f'force {perception.force:.3f} N < {p.drop_force_fraction:g} x '
-                               f'{self.reference_force:.3f} N')
-        if perception.filtered is not None:
-            values = [abs(v) for v in perception.filtered if math.isfinite(v)]
-            if values:
-                level = sum(values) / len(values)
-                self.reference_level = max(self.reference_level, level)
-                if (self.reference_level >= p.drop_min_reference_level
-                        and level < p.drop_level_fraction * self.reference_level):
-                    reasons.append(f'deformation {level:.4f} < {p.drop_level_fraction:g} x '
-                                   f'{self.reference_level:.4f}')
-        if p.drop_on_contact_loss and not any(perception.contact):
-            reasons.append('contact lost on both fingers')
-        if not reasons:
-            self.low_since = None
-            return False
-        if self.low_since is None:
-            self.low_since = now
-        self.reason = '; '.join(reasons)
-        return now - self.low_since >= p.drop_confirm_time
-
-
-# ---------------------------------------------------------------------------------------
 # The state machine
 
 
@@ -369,6 +338,11 @@ class _Grasp:
     last_tightening_time: float = -math.inf
     last_slip_stamp: float = -math.inf
     drop: DropDetector | None = None
+    lift: LiftMonitor | None = None
+    lift_target: float = 0.0           # lift_distance, plus the set-down probe if any [m]
+    probe_phase: str = ''              # '', 'down' (lowering), 'settle'
+    probe_since: float = 0.0           # start of the probe's settle [s]
+    free_current: float | None = None  # lowest servo current while closing [A]
     slip_events: int = 0
     tightening: float = 0.0
     lift_height: float = 0.0
@@ -379,6 +353,7 @@ class _Grasp:
 class _Latest:
     perception: PerceptionInput | None = None
     joint: JointInput | None = None
+    wrench: WrenchInput | None = None
     invalid_since: float | None = None
 
 
@@ -389,6 +364,8 @@ class GraspStateMachine:
     ----------
     params : ControllerParams
         Node-level configuration and safety caps; validated (``ValueError`` if unsafe).
+    lift_check : LiftCheckParams, optional
+        Thresholds of the lift verification and of the closed-on-object check.
 
     Notes
     -----
@@ -398,8 +375,13 @@ class GraspStateMachine:
     arm velocity commanded at the previous step over the elapsed time.
     """
 
-    def __init__(self, params: ControllerParams | None = None) -> None:
+    def __init__(self, params: ControllerParams | None = None,
+                 lift_check: LiftCheckParams | None = None) -> None:
         self._params = (params or ControllerParams()).validated()
+        self._lift_check = lift_check or LiftCheckParams()
+        problems = self._lift_check.problems()
+        if problems:
+            raise ValueError('unusable lift check parameters: ' + '; '.join(problems))
         self._state = GraspState.IDLE
         self._controller = Controller.FORTE
         self._grasp: _Grasp | None = None
@@ -594,6 +576,8 @@ class GraspStateMachine:
                 latest.invalid_since = now
         if inputs.joint is not None:
             latest.joint = inputs.joint
+        if inputs.wrench is not None:
+            latest.wrench = inputs.wrench
 
     def _integrate(self, now: float) -> None:
         grasp = self._grasp
@@ -746,11 +730,14 @@ class GraspStateMachine:
                 return False
             command = self._ramp(now, p.closing_speed, p.min_angle)
             self._command(command, p.closing_speed)
+            if joint.effort is not None and math.isfinite(joint.effort):
+                grasp.free_current = joint.effort if grasp.free_current is None \
+                    else min(grasp.free_current, joint.effort)
             if command <= p.min_angle:
                 if grasp.at_min_since is None:
                     grasp.at_min_since = now
                 if now - grasp.at_min_since >= p.no_contact_settle:
-                    self._finish(Outcome.NO_CONTACT, 'closed fully without contact')
+                    self._finish_closed(command, perception)
             return False
 
         if state == GraspState.LOADING:
@@ -760,47 +747,7 @@ class GraspStateMachine:
             return self._loading(now, perception)
 
         if state in (GraspState.LIFTING, GraspState.HOLDING):
-            reacted = False
-            if controller == Controller.FORTE and valid and perception.slip \
-                    and perception.slip_active and perception.stamp > grasp.last_slip_stamp:
-                grasp.last_slip_stamp = perception.stamp
-                if now - grasp.last_tightening_time >= p.slip_refractory:
-                    if grasp.tightening + p.slip_increment > p.max_tightening + 1e-12:
-                        self._fault(FaultFlag.TIGHTENING_LIMIT,
-                                    f'slip tightening would exceed the cap '
-                                    f'{p.max_tightening:.4f} rad')
-                        return False
-                    assert self._servo is not None
-                    position = max(p.min_angle, self._servo.position - p.slip_increment)
-                    grasp.tightening += self._servo.position - position
-                    grasp.slip_events += 1
-                    grasp.last_tightening_time = now
-                    self._command(position, p.slip_speed)
-                    self._message = (f'slip {grasp.slip_events}: tightened to '
-                                     f'{position:.4f} rad')
-                    reacted = True
-            if valid and grasp.drop is not None and grasp.drop.update(perception, now):
-                self._finish(Outcome.DROPPED, f'dropped in {state.name}: {grasp.drop.reason}')
-                return reacted
-            if state == GraspState.LIFTING:
-                if grasp.lift_height >= p.lift_distance - 1e-12:
-                    self._arm_velocity = 0.0
-                    self._enter(GraspState.HOLDING, now)
-                    self._message = f'lifted {grasp.lift_height:.4f} m, holding'
-                else:
-                    self._arm_velocity = p.lift_speed
-            elif now - grasp.phase_start >= p.hold_duration:
-                if grasp.goal.release_after:
-                    grasp.outcome = Outcome.LIFTED
-                    self._last_outcome = Outcome.LIFTED
-                    self._arm_velocity = 0.0
-                    self._enter(GraspState.RELEASING, now)
-                    self._command(p.open_angle, p.release_speed)
-                    self._message = 'lifted and held; releasing'
-                else:
-                    self._finish(Outcome.LIFTED, f'lifted {grasp.lift_height:.4f} m and held '
-                                 f'{p.hold_duration:g} s')
-            return reacted
+            return self._lift_or_hold(now, state, perception, valid)
 
         if state == GraspState.RELEASING:
             self._arm_velocity = 0.0
@@ -812,6 +759,105 @@ class GraspStateMachine:
                 self._message = 'released'
             return False
         return False
+
+    def _lift_or_hold(self, now: float, state: GraspState,
+                      perception: PerceptionInput | None, valid: bool) -> bool:
+        """LIFTING / HOLDING: slip reaction, drop detection, lift evidence, arm, verdict."""
+        grasp = self._grasp
+        assert grasp is not None
+        p = grasp.params
+        reacted = False
+        if self._controller == Controller.FORTE and valid and perception.slip \
+                and perception.slip_active and perception.stamp > grasp.last_slip_stamp:
+            grasp.last_slip_stamp = perception.stamp
+            if now - grasp.last_tightening_time >= p.slip_refractory:
+                if grasp.tightening + p.slip_increment > p.max_tightening + 1e-12:
+                    self._fault(FaultFlag.TIGHTENING_LIMIT, 'slip tightening would exceed the '
+                                f'cap {p.max_tightening:.4f} rad')
+                    return False
+                assert self._servo is not None
+                position = max(p.min_angle, self._servo.position - p.slip_increment)
+                grasp.tightening += self._servo.position - position
+                grasp.slip_events += 1
+                grasp.last_tightening_time = now
+                self._command(position, p.slip_speed)
+                self._message = f'slip {grasp.slip_events}: tightened to {position:.4f} rad'
+                reacted = True
+        if valid and grasp.drop is not None and grasp.drop.update(perception, now):
+            self._finish(Outcome.DROPPED, f'dropped in {state.name}: {grasp.drop.reason}')
+            return reacted
+        if valid and grasp.lift is not None:
+            grasp.lift.update(perception.stamp, perception.filtered,
+                              perception.slip and perception.slip_active,
+                              state == GraspState.HOLDING, self._latest.wrench, now)
+        if state == GraspState.LIFTING:
+            self._lift_arm(now)
+        else:
+            self._hold(now)
+        return reacted
+
+    def _hold(self, now: float) -> None:
+        """HOLDING: arm still for hold_duration, then the set-down probe, then the verdict."""
+        grasp = self._grasp
+        assert grasp is not None and grasp.lift is not None
+        p = grasp.params
+        probe = grasp.lift_target - p.lift_distance
+        if not grasp.probe_phase:
+            self._arm_velocity = 0.0
+            if now - grasp.phase_start < p.hold_duration:
+                return
+            if probe <= 0.0:
+                self._judge_lift(now)
+                return
+            grasp.probe_phase = 'down'
+            grasp.lift.begin_probe()
+            self._message = f'set-down probe: lowering {probe * 1000:.1f} mm'
+        if grasp.probe_phase == 'down':
+            remaining = grasp.lift_height - p.lift_distance
+            if remaining > _PROBE_END:
+                # slow down exponentially into the end point: stopping a downward motion
+                # accelerates the object upward, and a carried object's friction must carry
+                # m x that acceleration on top of its weight
+                self._arm_velocity = -min(p.lift_speed, remaining / _PROBE_APPROACH)
+                return
+            grasp.probe_phase = 'settle'
+            grasp.probe_since = now
+        self._arm_velocity = 0.0
+        if now - grasp.probe_since >= self._lift_check.probe_settle:
+            self._judge_lift(now)
+
+    def _lift_arm(self, now: float) -> None:
+        """Arm command while LIFTING: on up to the lift height, then HOLDING."""
+        grasp = self._grasp
+        assert grasp is not None
+        p = grasp.params
+        if grasp.lift_height >= grasp.lift_target - 1e-12:
+            self._arm_velocity = 0.0
+            self._enter(GraspState.HOLDING, now)
+            self._message = f'lifted {grasp.lift_height:.4f} m, holding'
+        else:
+            self._arm_velocity = p.lift_speed
+
+    def _judge_lift(self, now: float) -> None:
+        """End of the hold: LIFTED (or RELEASING) if the object is carried, else NOT_CARRIED."""
+        grasp = self._grasp
+        assert grasp is not None
+        p = grasp.params
+        verdict = grasp.lift.verdict() if grasp.lift is not None else None
+        evidence = f': {verdict.reason}' if verdict is not None else ''
+        if verdict is not None and not verdict.carried:
+            self._finish(Outcome.NOT_CARRIED, f'lift of {grasp.lift_height:.4f} m commanded, '
+                         f'object not carried: {verdict.reason}')
+        elif grasp.goal.release_after:
+            grasp.outcome = Outcome.LIFTED
+            self._last_outcome = Outcome.LIFTED
+            self._arm_velocity = 0.0
+            self._enter(GraspState.RELEASING, now)
+            self._command(p.open_angle, p.release_speed)
+            self._message = 'lifted and held; releasing' + evidence
+        else:
+            self._finish(Outcome.LIFTED, f'lifted {grasp.lift_height:.4f} m and held '
+                         f'{p.hold_duration:g} s{evidence}')
 
     def _hold_ramp(self, now: float) -> None:
         """Freeze the ramp at the current command (restarts from there later)."""
@@ -873,12 +919,35 @@ class GraspStateMachine:
         assert grasp is not None
         self._enter(GraspState.LIFTING, now)
         grasp.drop = DropDetector(grasp.params)
+        grasp.lift = LiftMonitor(self._lift_check)
+        probe = self._lift_check.probe_distance if self._lift_check.verify_lift else 0.0
+        if grasp.params.lift_distance + probe > grasp.params.max_lift_distance:
+            probe = 0.0  # no room under the lift cap: judged without the probe
+        grasp.lift_target = grasp.params.lift_distance + probe
         perception = self._latest.perception
         if perception is not None and perception.data_valid \
                 and _fresh(perception.stamp, now, grasp.params.perception_timeout):
             grasp.drop.update(perception, now)  # references from the grip at lift start
         self._arm_velocity = grasp.params.lift_speed
         self._message = message
+
+    def _finish_closed(self, command: float, perception: PerceptionInput | None) -> None:
+        """Closed fully without a contact flag: NO_CONTACT, or CLOSED_ON_OBJECT on evidence."""
+        grasp = self._grasp
+        joint = self._latest.joint
+        assert grasp is not None and joint is not None
+        filtered = force = None
+        if perception is not None and perception.data_valid:
+            filtered = perception.filtered
+            if perception.force_valid:
+                force = perception.force
+        evidence = closed_on_object_evidence(self._lift_check, command, joint.theta, filtered,
+                                             force, joint.effort, grasp.free_current)
+        if evidence:
+            self._finish(Outcome.CLOSED_ON_OBJECT, 'closed fully without a contact flag, '
+                         f'but on something (possibly squeezed): {evidence}')
+        else:
+            self._finish(Outcome.NO_CONTACT, 'closed fully without contact')
 
     def _outputs(self, servo_changed: bool, slip_reacted: bool) -> ControlOutputs:
         grasp = self._grasp
@@ -928,5 +997,6 @@ def _flag_names(flags: FaultFlag) -> str:
 __all__ = [
     'ACTIVE_STATES', 'PAPER_SLIP_INCREMENT', 'ControlInputs', 'ControlOutputs', 'Controller',
     'ControllerParams', 'DropDetector', 'FaultFlag', 'GraspGoal', 'GraspState',
-    'GraspStateMachine', 'JointInput', 'Outcome', 'PerceptionInput', 'ServoOutput',
+    'GraspStateMachine', 'JointInput', 'LiftCheckParams', 'Outcome', 'PerceptionInput',
+    'ServoOutput', 'WrenchInput',
 ]

@@ -23,9 +23,15 @@ from forte_control.state_machine import (
 DT = 0.01  # one perception update (20 samples at 2 kHz) [s]
 
 
+#: Tared filtered channels of an object held by both fingers alike (a carried object).
+CARRIED = (0.05, 0.03, 0.015) * 2
+
+
 class Rig:
     """Synthetic world: the joint follows the servo command at once (or stays blocked at
-    ``block_angle`` by an object), perception fields are set by the test."""
+    ``block_angle`` by an object), perception fields are set by the test. Once the fingers
+    touch (``to_lifting``), the tactile pattern is that of a carried object (:data:`CARRIED`)
+    unless the test set its own."""
 
     def __init__(self, params: ControllerParams | None = None, theta: float = 1.0) -> None:
         self.machine = GraspStateMachine(params or ControllerParams())
@@ -91,6 +97,8 @@ class Rig:
             if self.theta <= contact_angle:
                 self.contact = (True, True)
                 self.force = 10.0 * (contact_angle - self.theta)
+                if self.filtered is None:
+                    self.filtered = CARRIED
             return out.state == GraspState.LIFTING
         self.run_until(world)
         return self.history[-1]
@@ -105,14 +113,20 @@ def test_constants_equal_messages():
         assert getattr(GraspStateMsg, f'FAULT_{name}') == member.value
     for member in Outcome:
         assert getattr(Grasp.Result, member.name) == member.value
+        assert getattr(GraspStateMsg, f'OUTCOME_{member.name}') == member.value
     for member in Controller:
         assert getattr(Grasp.Goal, member.name) == member.value
     # and no message constant is missing from the mirror
-    msg_states = {n for n in dir(GraspStateMsg) if n.isupper() and not n.startswith('FAULT_')
+    msg_states = {n for n in dir(GraspStateMsg) if n.isupper()
+                  and not n.startswith(('FAULT_', 'OUTCOME_'))
                   and isinstance(getattr(GraspStateMsg, n), int)}
     assert msg_states == {m.name for m in GraspState}
     msg_faults = {n[6:] for n in dir(GraspStateMsg) if n.startswith('FAULT_')}
     assert msg_faults == set(FaultFlag.__members__)
+    msg_outcomes = {n[8:] for n in dir(GraspStateMsg) if n.startswith('OUTCOME_')}
+    result_outcomes = {n for n in dir(Grasp.Result) if n.isupper()
+                       and isinstance(getattr(Grasp.Result, n), int)}
+    assert msg_outcomes == result_outcomes == set(Outcome.__members__)
 
 
 def test_paper_defaults():
@@ -168,6 +182,7 @@ def test_full_forte_grasp_step_by_step():
     # contact on one finger is enough in 'either' mode; force at contact is 0.1 N
     rig.contact = (True, False)
     rig.force = 0.1
+    rig.filtered = CARRIED
     out = rig.tick()
     assert out.state == GraspState.LOADING
     assert out.target_force == pytest.approx(0.35)
@@ -192,13 +207,18 @@ def test_full_forte_grasp_step_by_step():
     assert out.servo.position == pytest.approx(held - PAPER_SLIP_INCREMENT)
     assert out.servo_changed
     assert out.tightening == pytest.approx(PAPER_SLIP_INCREMENT)
-    # lift to 3 cm -> HOLDING (arm stops) -> DONE with LIFTED after hold_duration
+    # lift to 3 cm + the 2 mm of the set-down probe -> HOLDING (arm stops) -> after
+    # hold_duration down to 3 cm -> DONE with LIFTED (the shear pattern did not change)
     out = rig.run_until(lambda o: o.state == GraspState.HOLDING)
     assert out.arm_velocity == 0.0
-    assert out.lift_height == pytest.approx(0.03, abs=0.005 * DT + 1e-9)
+    assert out.lift_height == pytest.approx(0.032, abs=0.005 * DT + 1e-9)
+    out = rig.run_until(lambda o: o.arm_velocity < 0.0)
+    assert out.state == GraspState.HOLDING and 'set-down probe' in out.message
     out = rig.run_until(lambda o: o.state == GraspState.DONE)
+    assert out.lift_height == pytest.approx(0.03, abs=2e-5)
     assert out.outcome == Outcome.LIFTED and out.finished
     assert rig.machine.last_outcome == Outcome.LIFTED
+    assert 'equal' in out.message  # the evidence that the object was carried
     out = rig.tick()
     assert out.state == GraspState.DONE and not out.finished and out.arm_velocity == 0.0
     # a new goal is accepted after DONE
@@ -428,8 +448,10 @@ def test_goal_overrides_apply():
     rig = Rig()
     rig.to_lifting(lift_distance=0.01, lift_speed=0.01, initial_force=0.5)
     out = rig.run_until(lambda o: o.state == GraspState.HOLDING)
-    assert out.lift_height == pytest.approx(0.01, abs=0.01 * DT + 1e-9)
+    assert out.lift_height == pytest.approx(0.012, abs=0.01 * DT + 1e-9)  # + probe
     assert out.target_force == pytest.approx(0.5, abs=0.2)
+    out = rig.run_until(lambda o: o.state == GraspState.DONE)
+    assert out.lift_height == pytest.approx(0.01, abs=2e-5)
 
 
 @pytest.mark.parametrize('state', [GraspState.CLOSING, GraspState.LOADING,
@@ -583,13 +605,15 @@ def test_cancel_when_idle_and_busy_start_refused():
     assert not rig.machine.reset_fault(rig.now)[0]
 
 
-def test_on_off_closes_fully_without_sensing_then_lifts():
+@pytest.mark.parametrize('sensing', [False, True])
+def test_on_off_closes_fully_without_sensing_then_lifts(sensing):
     rig = Rig()
-    rig.send_perception = False  # ON_OFF needs no perception
+    rig.send_perception = sensing  # ON_OFF needs no perception to move
     assert rig.start(controller=Controller.ON_OFF)[0]
     rig.block_angle = 0.4
     rig.contact = (True, True)
     rig.force = 7.0  # above the force cap: ON_OFF does not sense, so no FORCE_LIMIT
+    rig.filtered = CARRIED
     out = rig.run_until(lambda o: o.state == GraspState.LIFTING)
     assert out.servo.position == 0.0
     # 1.0 rad at 0.25 rad/s, then on_off_settle 0.5 s
@@ -597,7 +621,11 @@ def test_on_off_closes_fully_without_sensing_then_lifts():
     out = rig.run_until(lambda o: o.state == GraspState.HOLDING)
     assert out.outcome == Outcome.NONE
     out = rig.run_until(lambda o: o.state == GraspState.DONE)
-    assert out.outcome == Outcome.LIFTED and out.slip_events == 0
+    assert out.slip_events == 0
+    if sensing:  # the tactile pattern shows the object carried
+        assert out.outcome == Outcome.LIFTED
+    else:  # nothing shows that the object left the table: not claimed
+        assert out.outcome == Outcome.NOT_CARRIED and 'no tactile data' in out.message
 
 
 def test_on_off_drop_detected_from_sensors_for_outcome():

@@ -730,6 +730,13 @@ class Scene:
                         self._shear[finger] = candidate
                         self._release(finger, candidate, static[finger], kinetic[finger],
                                       previous[finger], tick_start, stiffness[finger])
+                elif candidate < -limit_value:
+                    # the arm lowers the fingers along the object the table holds: friction
+                    # opposes the motion both ways, so the shear reverses only down to
+                    # -friction and the contact slides (smoothly) beyond
+                    self._sliding[finger] = True
+                    self._shear[finger] = -kinetic[finger]
+                    self._slide[finger] += (candidate + kinetic[finger]) / stiffness[finger]
                 else:
                     if self._sliding[finger]:
                         self._sliding[finger] = False

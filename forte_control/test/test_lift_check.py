@@ -1,0 +1,315 @@
+"""The controller's claim about the object: lift verification and the closed-on-object check.
+
+Synthetic inputs with the physics of docs/control.md: a carried object hangs between two
+fingers that press it equally (its only horizontal forces), an object still on the table can
+be held against one finger by the table's friction, and fingers that still slip at the end
+of the lift are sliding along the object, not carrying it.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+
+from forte_control.lift_check import (
+    LiftCheckParams,
+    LiftMonitor,
+    WrenchInput,
+    closed_on_object_evidence,
+    finger_levels,
+    shear_index,
+)
+from forte_control.state_machine import (
+    ControlInputs,
+    Controller,
+    ControllerParams,
+    GraspGoal,
+    GraspState,
+    GraspStateMachine,
+    JointInput,
+    Outcome,
+    PerceptionInput,
+)
+
+DT = 0.01
+EQUAL = (0.10, 0.06, 0.03, 0.10, 0.06, 0.03)       # both fingers pressed alike
+ONE_SIDED = (0.10, 0.06, 0.03, 0.05, 0.03, 0.015)  # right finger at half the left's load
+
+
+def lift(monitor: LiftMonitor, pattern, *, lift_time=6.0, hold_time=1.0, flags=(),
+         hold_flags=(), wrench=None, t0=10.0):
+    """Feed a lift of ``lift_time`` then a hold of ``hold_time`` at 100 Hz.
+
+    ``flags`` / ``hold_flags``: times (s after the start of the lift / of the hold) of slip
+    flags; ``wrench``: function time-since-lift-start -> vertical wrist load [N] or None.
+    """
+    steps = int(round((lift_time + hold_time) / DT))
+    for k in range(steps):
+        t = k * DT
+        holding = t >= lift_time
+        flag = any(abs(t - f) < DT / 2 for f in flags) or any(
+            abs(t - lift_time - f) < DT / 2 for f in hold_flags)
+        reading = None if wrench is None else WrenchInput(t0 + t, wrench(t))
+        monitor.update(t0 + t, pattern, flag, holding, reading, t0 + t)
+    return monitor.verdict()
+
+
+def test_finger_levels_sum_each_fingers_channels():
+    assert finger_levels(EQUAL) == pytest.approx((0.19, 0.19))
+    assert finger_levels(None) is None
+    assert finger_levels((0.1,) * 5) is None
+    assert finger_levels((float('nan'),) + (0.1,) * 5) is None
+
+
+def test_equal_fingers_and_a_quiet_lift_mean_carried():
+    verdict = lift(LiftMonitor(LiftCheckParams()), EQUAL, flags=(1.0, 2.5, 4.9))
+    assert verdict.carried, verdict.reason
+    assert '0.1900 / 0.1900' in verdict.reason
+
+
+def test_one_finger_pressing_harder_means_the_table_still_holds_the_object():
+    verdict = lift(LiftMonitor(LiftCheckParams()), ONE_SIDED)
+    assert not verdict.carried and 'unequal' in verdict.reason
+
+
+def test_a_finger_without_load_is_not_a_grasp():
+    verdict = lift(LiftMonitor(LiftCheckParams()), (0.1, 0.06, 0.03, 0.002, 0.001, 0.0))
+    assert not verdict.carried and 'not loaded' in verdict.reason
+
+
+def test_balance_tolerance_grows_with_the_load():
+    """Unit trims make equal forces read a few per cent apart; heavier grips more so."""
+    params = LiftCheckParams()
+    light = (0.03, 0.02, 0.01, 0.031, 0.021, 0.0105)          # 4 % apart, 0.06 each
+    heavy = (0.30, 0.20, 0.10, 0.306, 0.204, 0.102)            # 2 % apart, 0.6 each
+    assert lift(LiftMonitor(params), light).carried
+    assert lift(LiftMonitor(params), heavy).carried
+    lopsided = (0.30, 0.20, 0.10, 0.27, 0.18, 0.09)            # 10 % apart
+    assert not lift(LiftMonitor(params), lopsided).carried
+
+
+def test_slip_at_the_end_of_the_lift_means_still_sliding():
+    verdict = lift(LiftMonitor(LiftCheckParams()), EQUAL, flags=(5.5,))
+    assert not verdict.carried and 'sliding' in verdict.reason
+    # quiet_time before the hold is enough
+    assert lift(LiftMonitor(LiftCheckParams()), EQUAL, flags=(4.95,)).carried
+
+
+def test_shear_index_is_distal_minus_root_of_both_fingers():
+    assert shear_index(EQUAL) == pytest.approx(0.14)
+    assert shear_index(None) is None
+
+
+def set_down(unload: float, params: LiftCheckParams | None = None):
+    """A quiet, balanced lift, then the set-down probe: the fingers' shear pattern
+    (distal up, root down per newton of tangential load) drops by ``unload`` per finger."""
+    monitor = LiftMonitor(params or LiftCheckParams())
+    t = 10.0
+    for _ in range(600):
+        monitor.update(t, EQUAL, False, False)
+        t += DT
+    monitor.begin_probe()
+    d, r = 0.6 * unload, 0.4 * unload  # distal falls, root rises: the difference by unload
+    unloaded = (EQUAL[0] - d, EQUAL[1], EQUAL[2] + r, EQUAL[3] - d, EQUAL[4], EQUAL[5] + r)
+    for k in range(80):
+        pattern = EQUAL if k < 10 else unloaded
+        monitor.update(t, pattern, False, True)
+        t += DT
+    return monitor.verdict()
+
+
+def test_set_down_probe_that_leaves_the_shear_pattern_means_carried():
+    verdict = set_down(0.0005)
+    assert verdict.carried and 'when set down' in verdict.reason
+
+
+def test_set_down_probe_that_unloads_the_fingers_means_the_table_holds_the_object():
+    verdict = set_down(0.003)
+    assert not verdict.carried and 'table took load' in verdict.reason
+    assert '-0.0060' in verdict.reason  # both fingers, distal - root
+
+
+def test_slip_while_holding_does_not_deny_the_lift():
+    """With the arm still only gravity can make the object slip: it hangs from the fingers."""
+    verdict = lift(LiftMonitor(LiftCheckParams()), EQUAL, hold_flags=(0.5,))
+    assert verdict.carried, verdict.reason
+
+
+def test_only_the_last_balance_window_counts():
+    monitor = LiftMonitor(LiftCheckParams())
+    for k in range(100):  # one-sided while the object is still on the table ...
+        monitor.update(10.0 + k * DT, ONE_SIDED, False, False)
+    for k in range(100, 250):  # ... equal once it hangs from the fingers
+        monitor.update(10.0 + k * DT, EQUAL, False, k >= 200)
+    assert monitor.verdict().carried
+
+
+def test_no_tactile_data_means_not_shown_carried():
+    monitor = LiftMonitor(LiftCheckParams())
+    monitor.update(10.0, None, False, False)
+    verdict = monitor.verdict()
+    assert not verdict.carried and 'no tactile data' in verdict.reason
+
+
+def test_verification_can_be_switched_off():
+    assert lift(LiftMonitor(LiftCheckParams(verify_lift=False)), ONE_SIDED).carried
+
+
+def test_optional_wrench_needs_the_wrist_to_take_the_load():
+    params = LiftCheckParams(use_wrench=True, min_wrench_load=1.0)
+    assert lift(LiftMonitor(params), EQUAL, wrench=lambda t: 0.2 + min(t, 2.0)).carried
+    drag = lift(LiftMonitor(params), EQUAL, wrench=lambda t: 0.2 + min(t, 0.3))
+    assert not drag.carried and 'wrist load' in drag.reason
+    missing = lift(LiftMonitor(params), EQUAL)
+    assert not missing.carried and 'wrench' in missing.reason
+    # off by default: a wrench input changes nothing
+    assert lift(LiftMonitor(LiftCheckParams()), EQUAL, wrench=lambda t: 0.0).carried
+
+
+def test_stale_wrench_is_ignored():
+    params = LiftCheckParams(use_wrench=True, min_wrench_load=1.0)
+    monitor = LiftMonitor(params)
+    for k in range(700):
+        t = 10.0 + k * DT
+        monitor.update(t, EQUAL, False, k >= 600, WrenchInput(10.0, 5.0), t)
+    verdict = monitor.verdict()
+    assert not verdict.carried and 'no fresh wrist wrench' in verdict.reason
+
+
+def test_bad_thresholds_refused():
+    assert LiftCheckParams().problems() == []
+    assert LiftCheckParams(balance_floor=-1.0).problems()
+    assert LiftCheckParams(quiet_time=float('nan')).problems()
+    assert LiftCheckParams(balance_window=0.0).problems()
+    with pytest.raises(ValueError, match='lift check'):
+        GraspStateMachine(lift_check=LiftCheckParams(loaded_level=-0.1))
+
+
+@pytest.mark.parametrize('kwargs, fragment', [
+    ({'theta': 0.08}, 'joint stopped'),                        # blocked by a rigid object
+    ({'filtered': (0.06, 0.03, 0.015) * 2}, 'deformation'),    # a soft object squeezed
+    ({'force': 0.6}, 'force'),
+    ({'current': 0.25}, 'servo current'),
+])
+def test_closing_on_something_is_seen(kwargs, fragment):
+    values = {'command': 0.0, 'theta': 0.0, 'filtered': (0.001, -0.001, 0.0) * 2,
+              'force': 0.02, 'current': 0.06, 'free_current': 0.05}
+    values.update(kwargs)
+    assert fragment in closed_on_object_evidence(LiftCheckParams(), **values)
+
+
+def test_an_empty_gripper_closes_on_nothing():
+    assert closed_on_object_evidence(LiftCheckParams(), 0.0, 0.005, (0.002, 0.0, -0.001) * 2,
+                                     0.05, 0.07, 0.05) == ''
+    assert closed_on_object_evidence(LiftCheckParams(), 0.0, 0.0, None, None, None,
+                                     None) == ''
+
+
+class World:
+    """The joint follows the command unless an object blocks it at ``block``; the tactile
+    pattern and force are set by the test."""
+
+    def __init__(self, lift_check: LiftCheckParams | None = None) -> None:
+        self.machine = GraspStateMachine(ControllerParams(), lift_check)
+        self.now = 50.0
+        self.theta = 0.6
+        self.block = -1.0
+        self.filtered = (0.0,) * 6
+        self.force = 0.0
+        self.effort = 0.05
+        self.contact = (False, False)
+
+    def inputs(self) -> ControlInputs:
+        return ControlInputs(
+            perception=PerceptionInput(stamp=self.now, force=self.force, force_valid=True,
+                                       contact=self.contact, slip_active=True,
+                                       filtered=self.filtered),
+            joint=JointInput(stamp=self.now, theta=self.theta, effort=self.effort))
+
+    def run(self, limit: float = 20.0):
+        assert self.machine.start(GraspGoal(controller=Controller.NO_SLIP), self.now,
+                                  self.inputs())[0]
+        end = self.now + limit
+        while self.now < end:
+            self.now += DT
+            out = self.machine.step(self.inputs(), self.now)
+            if out.servo is not None:
+                self.theta = max(out.servo.position, self.block)
+            if out.state not in (GraspState.CLOSING, GraspState.LOADING, GraspState.LIFTING,
+                                 GraspState.HOLDING):
+                return out
+        raise AssertionError('grasp did not finish')
+
+
+def test_machine_reports_no_contact_for_an_empty_gripper():
+    out = World().run()
+    assert out.outcome == Outcome.NO_CONTACT and out.message == 'closed fully without contact'
+
+
+def test_machine_reports_a_squeezed_soft_object_that_never_tripped_contact():
+    world = World()
+    world.filtered = (0.06, 0.03, 0.015) * 2  # deformed, but too slowly for the contact flag
+    world.force = 0.6
+    out = world.run()
+    assert out.outcome == Outcome.CLOSED_ON_OBJECT
+    assert 'deformation' in out.message and 'force' in out.message
+
+
+def test_machine_reports_a_blocked_joint():
+    world = World()
+    world.block = 0.1  # a rigid object stalls the servo short of closed
+    out = world.run()
+    assert out.outcome == Outcome.CLOSED_ON_OBJECT and 'joint stopped' in out.message
+
+
+def test_machine_ends_a_one_sided_lift_in_not_carried():
+    world = World(replace(LiftCheckParams(), quiet_time=0.5))
+    world.contact = (True, True)  # contact at once; the force reaches the target at once
+    world.force = 0.4
+    world.filtered = ONE_SIDED
+    out = world.run(limit=30.0)
+    assert out.outcome == Outcome.NOT_CARRIED and 'unequal' in out.message
+    assert out.lift_height == pytest.approx(0.03, abs=1e-3)
+    world = World()
+    world.contact = (True, True)
+    world.force = 0.4
+    world.filtered = EQUAL
+    out = world.run(limit=30.0)
+    assert out.outcome == Outcome.LIFTED
+
+
+@pytest.mark.parametrize('table_holds', [False, True])
+def test_machine_probes_by_setting_down_and_judges_the_shear_change(table_holds):
+    """Lift 2 mm beyond the lift height, hold, lower back: a resting object unloads the
+    fingers while they go down (shear pattern falls), a carried one goes down with them."""
+    world = World()
+    world.contact = (True, True)
+    world.force = 0.4
+    world.filtered = EQUAL
+    assert world.machine.start(GraspGoal(controller=Controller.FORTE), world.now,
+                               world.inputs())[0]
+    top = 0.0
+    while True:
+        world.now += DT
+        out = world.machine.step(world.inputs(), world.now)
+        top = max(top, out.lift_height)
+        if out.arm_velocity < 0.0 and table_holds:  # lowering onto the table's support
+            world.filtered = (0.097, 0.06, 0.032, 0.097, 0.06, 0.032)
+        if out.state == GraspState.DONE:
+            break
+    assert top == pytest.approx(0.032, abs=1e-4)
+    assert out.lift_height == pytest.approx(0.03, abs=2e-5)
+    if table_holds:
+        assert out.outcome == Outcome.NOT_CARRIED and 'table took load' in out.message
+    else:
+        assert out.outcome == Outcome.LIFTED and 'when set down' in out.message
+
+
+def test_no_probe_without_room_under_the_lift_cap():
+    world = World()
+    world.machine = GraspStateMachine(replace(ControllerParams(), max_lift_distance=0.03))
+    world.contact = (True, True)
+    world.force = 0.4
+    world.filtered = EQUAL
+    out = world.run(limit=30.0)
+    assert out.outcome == Outcome.LIFTED and 'set down' not in out.message
