@@ -55,6 +55,8 @@ from collections import deque
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING
 
+from forte_control.parameters import LIFT_CHECK_PREFIX, range_problems
+
 if TYPE_CHECKING:  # pragma: no cover - type hints only (state_machine imports this module)
     from .state_machine import ControllerParams, PerceptionInput
 
@@ -88,17 +90,14 @@ class LiftCheckParams:
     loaded_current: float = 0.1         # servo current rise over free closing [A]
 
     def problems(self) -> list[str]:
-        """Reasons why these thresholds are unusable (empty when valid)."""
-        out = []
-        for item in fields(self):
-            value = getattr(self, item.name)
-            if isinstance(value, bool):
-                continue
-            if not math.isfinite(value) or value < 0.0:
-                out.append(f'{item.name} must be finite and >= 0, got {value}')
-        if not out and (self.balance_window <= 0.0 or self.probe_window <= 0.0):
-            out.append('balance_window and probe_window must be > 0')
-        return out
+        """Reasons why these thresholds are unusable (empty when valid).
+
+        The ranges are those of :data:`forte_control.parameters.LIFT_CHECK_PARAMETERS`, the
+        node's descriptors of the same thresholds.
+        """
+        values = {LIFT_CHECK_PREFIX + item.name: getattr(self, item.name)
+                  for item in fields(self)}
+        return range_problems(values)
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 # Hard limits no parameter may exceed (also the upper ends of the ranges below).
 HARD_MAX_FORCE = 10.0            # [N], above the force model's 0-8 N range
@@ -42,6 +42,7 @@ MIN_LIFT_SPEED = 1e-4            # [m/s]
 MIN_LIFT_DISTANCE = 1e-4         # [m]
 MIN_DURATION = 1e-3              # [s]
 MIN_CURRENT = 0.01               # [A]
+MIN_LEVEL = 1e-4                 # [normalised tactile units]
 
 
 @dataclass(frozen=True)
@@ -203,14 +204,54 @@ NODE_PARAMETERS: dict[str, ParameterSpec] = {spec.name: spec for spec in (
 )}
 
 
+#: Prefix of the lift verification's parameters on the node (a ``lift_check:`` block in YAML).
+LIFT_CHECK_PREFIX = 'lift_check.'
+
+#: The lift verification's thresholds (the fields of
+#: :class:`forte_control.lift_check.LiftCheckParams`, which holds their defaults), under
+#: their node names. Levels are in the tared filtered channels' normalised units (-1..1).
+LIFT_CHECK_PARAMETERS: dict[str, ParameterSpec] = {
+    LIFT_CHECK_PREFIX + spec.name: replace(spec, name=LIFT_CHECK_PREFIX + spec.name)
+    for spec in (
+    _spec('verify_lift', bool, '', 'LIFTED only with evidence that the object is carried '
+          '(false: from the commanded lift alone, the old behaviour)'),
+    _spec('balance_window', float, 's', 'averaging time of the two finger levels',
+          MIN_DURATION, 5.0),
+    _spec('balance_floor', float, '', '|left - right| finger level always allowed', 0.0, 2.0),
+    _spec('balance_tolerance', float, '', 'plus this fraction of left + right', 0.0, 1.0),
+    _spec('min_finger_level', float, '', 'each finger must be loaded this much', 0.0, 2.0),
+    _spec('quiet_time', float, 's', 'no slip flag in this last part of the lift', 0.0, 60.0),
+    _spec('probe_distance', float, 'm', 'set-down probe: lift this far beyond the lift '
+          'height, then lower back (0: no probe)', 0.0, 0.05),
+    _spec('probe_settle', float, 's', 'wait after lowering before judging', 0.0, 10.0),
+    _spec('probe_window', float, 's', 'averaging time of the shear index before / after the '
+          'probe', MIN_DURATION, 5.0),
+    _spec('probe_unload', float, '', 'shear index change that means the table took load',
+          0.0, 2.0),
+    _spec('use_wrench', bool, '', 'also require the wrist load to grow (needs arm/wrench)'),
+    _spec('min_wrench_load', float, 'N', 'wrist load gained since the lift began',
+          0.0, 100.0),
+    _spec('wrench_timeout', float, 's', 'wrist wrench freshness bound', MIN_DURATION,
+          HARD_MAX_FRESHNESS),
+    _spec('stall_tolerance', float, 'rad', 'joint short of a closed command: blocked',
+          MIN_ANGLE_STEP, 1.0),
+    _spec('loaded_level', float, '', 'mean |filtered| of a gripper closed on something',
+          MIN_LEVEL, 2.0),
+    _spec('loaded_force', float, 'N', 'force estimate of a gripper closed on something',
+          MIN_FORCE, HARD_MAX_FORCE),
+    _spec('loaded_current', float, 'A', 'servo current rise over free closing of a gripper '
+          'closed on something', MIN_CURRENT, HARD_MAX_CURRENT),
+    )}
+
+
 def range_problems(values: Mapping[str, object]) -> list[str]:
     """Reasons why values are outside their parameter's range or choices.
 
     Parameters
     ----------
     values : mapping
-        Parameter name -> value; names without an entry in :data:`CONTROLLER_PARAMETERS`
-        or :data:`NODE_PARAMETERS` are ignored.
+        Parameter name -> value; names without an entry in :data:`CONTROLLER_PARAMETERS`,
+        :data:`NODE_PARAMETERS` or :data:`LIFT_CHECK_PARAMETERS` are ignored.
 
     Returns
     -------
@@ -220,7 +261,8 @@ def range_problems(values: Mapping[str, object]) -> list[str]:
     """
     out: list[str] = []
     for name, value in values.items():
-        spec = CONTROLLER_PARAMETERS.get(name) or NODE_PARAMETERS.get(name)
+        spec = CONTROLLER_PARAMETERS.get(name) or NODE_PARAMETERS.get(name) \
+            or LIFT_CHECK_PARAMETERS.get(name)
         if spec is None or spec.accepts(value):
             continue
         if spec.choices:

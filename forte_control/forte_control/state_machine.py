@@ -327,6 +327,7 @@ class _Grasp:
 
     goal: GraspGoal
     params: ControllerParams           # effective parameters (node params + goal overrides)
+    lift_check: LiftCheckParams        # lift verification thresholds when the goal started
     start_time: float
     phase_start: float
     ramp_start_angle: float = 0.0      # command at the start of the current ramp [rad]
@@ -409,6 +410,22 @@ class GraspStateMachine:
         if problems:
             return False, '; '.join(problems)
         self._params = params
+        return True, 'ok'
+
+    @property
+    def lift_check(self) -> LiftCheckParams:
+        """Thresholds of the lift verification (applied to the next grasp)."""
+        return self._lift_check
+
+    def set_lift_check(self, lift_check: LiftCheckParams) -> tuple[bool, str]:
+        """Replace the lift verification's thresholds; refused with a reason when unusable.
+
+        A grasp in progress keeps the thresholds it started with.
+        """
+        problems = lift_check.problems()
+        if problems:
+            return False, '; '.join(problems)
+        self._lift_check = lift_check
         return True, 'ok'
 
     @property
@@ -503,7 +520,8 @@ class GraspStateMachine:
                 return False, 'refused: perception reports invalid data'
         start_angle = joint.theta
         self._controller = controller
-        self._grasp = _Grasp(goal=goal, params=params, start_time=now, phase_start=now,
+        self._grasp = _Grasp(goal=goal, params=params, lift_check=self._lift_check,
+                             start_time=now, phase_start=now,
                              ramp_start_angle=max(start_angle, params.min_angle),
                              target_force=params.initial_force)
         self._state = GraspState.CLOSING
@@ -823,7 +841,7 @@ class GraspStateMachine:
             grasp.probe_phase = 'settle'
             grasp.probe_since = now
         self._arm_velocity = 0.0
-        if now - grasp.probe_since >= self._lift_check.probe_settle:
+        if now - grasp.probe_since >= grasp.lift_check.probe_settle:
             self._judge_lift(now)
 
     def _lift_arm(self, now: float) -> None:
@@ -919,8 +937,8 @@ class GraspStateMachine:
         assert grasp is not None
         self._enter(GraspState.LIFTING, now)
         grasp.drop = DropDetector(grasp.params)
-        grasp.lift = LiftMonitor(self._lift_check)
-        probe = self._lift_check.probe_distance if self._lift_check.verify_lift else 0.0
+        grasp.lift = LiftMonitor(grasp.lift_check)
+        probe = grasp.lift_check.probe_distance if grasp.lift_check.verify_lift else 0.0
         if grasp.params.lift_distance + probe > grasp.params.max_lift_distance:
             probe = 0.0  # no room under the lift cap: judged without the probe
         grasp.lift_target = grasp.params.lift_distance + probe
@@ -941,7 +959,7 @@ class GraspStateMachine:
             filtered = perception.filtered
             if perception.force_valid:
                 force = perception.force
-        evidence = closed_on_object_evidence(self._lift_check, command, joint.theta, filtered,
+        evidence = closed_on_object_evidence(grasp.lift_check, command, joint.theta, filtered,
                                              force, joint.effort, grasp.free_current)
         if evidence:
             self._finish(Outcome.CLOSED_ON_OBJECT, 'closed fully without a contact flag, '

@@ -1,8 +1,9 @@
-"""The grasp controller's parameter descriptors and ``ControllerParams.problems()`` agree.
+"""The grasp controller's parameter descriptors and the ``problems()`` checks agree.
 
-For every parameter of the state machine, the range the node advertises (its
-``ParameterDescriptor``, as ``ros2 param describe`` shows it and as rclpy enforces it) and
-the range ``ControllerParams.problems()`` enforces are the same: both accept each bound and
+For every parameter of the state machine (``ControllerParams``) and of the lift
+verification (``LiftCheckParams``, node names ``lift_check.<field>``), the range the node
+advertises (its ``ParameterDescriptor``, as ``ros2 param describe`` shows it and as rclpy
+enforces it) and the range ``problems()`` enforces are the same: both accept each bound and
 both refuse a value just outside it. Text parameters list the same choices.
 """
 from __future__ import annotations
@@ -17,13 +18,16 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from forte_control.grasp_controller_node import GraspControllerNode
+from forte_control.lift_check import LiftCheckParams
 from forte_control.state_machine import ControllerParams
 
-DEFAULTS = ControllerParams()
-NUMBERS = [item.name for item in fields(ControllerParams)
-           if isinstance(getattr(DEFAULTS, item.name), float)]
-TEXTS = [item.name for item in fields(ControllerParams)
-         if isinstance(getattr(DEFAULTS, item.name), str)]
+#: node parameter name -> (defaults of its dataclass, field name)
+GROUPS = {prefix + item.name: (defaults, item.name)
+          for defaults, prefix in ((ControllerParams(), ''), (LiftCheckParams(), 'lift_check.'))
+          for item in fields(defaults)}
+DEFAULTS = {name: getattr(defaults, field) for name, (defaults, field) in GROUPS.items()}
+NUMBERS = [name for name, value in DEFAULTS.items() if isinstance(value, float)]
+TEXTS = [name for name, value in DEFAULTS.items() if isinstance(value, str)]
 
 
 @pytest.fixture(scope='module')
@@ -39,8 +43,7 @@ def controller():
 
 @pytest.fixture(scope='module')
 def descriptors(controller) -> dict[str, ParameterDescriptor]:
-    names = [item.name for item in fields(ControllerParams)]
-    return dict(zip(names, controller.describe_parameters(names)))
+    return dict(zip(DEFAULTS, controller.describe_parameters(list(DEFAULTS))))
 
 
 @pytest.fixture(scope='module')
@@ -48,7 +51,7 @@ def range_checker(controller, descriptors):
     """A bare node with the controller's descriptors: rclpy's own range check, alone."""
     node = Node('descriptor_probe', context=controller.context)
     for name, descriptor in descriptors.items():
-        node.declare_parameter(name, getattr(DEFAULTS, name), descriptor)
+        node.declare_parameter(name, DEFAULTS[name], descriptor)
     yield node
     node.destroy_node()
 
@@ -56,13 +59,14 @@ def range_checker(controller, descriptors):
 def descriptor_accepts(node: Node, name: str, value: float) -> bool:
     """rclpy's verdict on ``value`` under the descriptor (the value is restored after)."""
     result = node.set_parameters([Parameter(name, value=value)])[0]
-    node.set_parameters([Parameter(name, value=getattr(DEFAULTS, name))])
+    node.set_parameters([Parameter(name, value=DEFAULTS[name])])
     return result.successful
 
 
 def problems_refuse_range(name: str, value: object) -> bool:
     """True if ``problems()`` refuses ``value`` of ``name`` as out of its range / choices."""
-    problems = replace(DEFAULTS, **{name: value}).problems()
+    defaults, field = GROUPS[name]
+    problems = replace(defaults, **{field: value}).problems()
     return any(p.startswith((f'{name}=', f'{name} must be one of')) and
                (' outside ' in p or 'must be one of' in p) for p in problems)
 
@@ -80,7 +84,7 @@ def test_every_number_has_a_range_and_its_default_inside(descriptors):
         assert len(descriptor.floating_point_range) == 1, f'{name} has no range'
         span = descriptor.floating_point_range[0]
         assert span.from_value < span.to_value, name
-        assert span.from_value <= getattr(DEFAULTS, name) <= span.to_value, name
+        assert span.from_value <= DEFAULTS[name] <= span.to_value, name
         assert descriptor.description, name
 
 
@@ -106,11 +110,11 @@ def test_the_node_refuses_what_problems_refuses(name, controller, descriptors):
         outside = just_outside(bound, direction)
         result = controller.set_parameters([Parameter(name, value=outside)])[0]
         assert not result.successful, (name, outside)
-        assert controller.get_parameter(name).value == getattr(DEFAULTS, name)
+        assert controller.get_parameter(name).value == DEFAULTS[name]
         result = controller.set_parameters([Parameter(name, value=bound)])[0]
         assert result.successful or 'outside' not in result.reason, (name, result.reason)
-        controller.set_parameters([Parameter(name, value=getattr(DEFAULTS, name))])
-    assert controller.get_parameter(name).value == getattr(DEFAULTS, name)
+        controller.set_parameters([Parameter(name, value=DEFAULTS[name])])
+    assert controller.get_parameter(name).value == DEFAULTS[name]
 
 
 @pytest.mark.parametrize('name', TEXTS)
@@ -118,7 +122,7 @@ def test_text_choices_agree(name, descriptors):
     constraint = descriptors[name].additional_constraints
     assert constraint.startswith('one of '), name
     choices = [part.strip().strip("'") for part in constraint[len('one of '):].split('|')]
-    assert getattr(DEFAULTS, name) in choices
+    assert DEFAULTS[name] in choices
     for choice in choices:
         assert not problems_refuse_range(name, choice), (name, choice)
     assert problems_refuse_range(name, 'not-a-choice')
@@ -130,12 +134,14 @@ def test_units_are_part_of_the_descriptions(descriptors):
     assert '[s]' in descriptors['perception_timeout'].description
     assert '[m/s]' in descriptors['lift_speed'].description
     assert '[A]' in descriptors['max_current'].description
+    assert '[m]' in descriptors['lift_check.probe_distance'].description
 
 
 def test_positive_quantities_refuse_zero(descriptors):
     """Speeds, caps and timeouts that must be positive say so in their range."""
     for name in ('closing_speed', 'lift_speed', 'max_force', 'perception_timeout',
-                 'timeout', 'max_current', 'slip_increment'):
+                 'timeout', 'max_current', 'slip_increment', 'lift_check.wrench_timeout',
+                 'lift_check.balance_window', 'lift_check.probe_window'):
         assert descriptors[name].floating_point_range[0].from_value > 0.0, name
         assert problems_refuse_range(name, 0.0), name
 
