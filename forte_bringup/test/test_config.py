@@ -46,6 +46,17 @@ def test_every_graph_has_its_own_file():
     assert all((config_folder() / f).is_file() for f in files)
 
 
+def flatten(block: dict, prefix: str = '') -> dict:
+    """Nested YAML parameter blocks as ROS names them: ``{'a': {'b': 1}}`` -> ``{'a.b': 1}``."""
+    flat = {}
+    for key, value in block.items():
+        if isinstance(value, dict):
+            flat.update(flatten(value, f'{prefix}{key}.'))
+        else:
+            flat[prefix + key] = value
+    return flat
+
+
 def call(node, client, request, timeout=10.0):
     assert client.wait_for_service(timeout_sec=timeout), client.srv_name
     future = client.call_async(request)
@@ -77,7 +88,7 @@ def test_yaml_keys_are_declared_parameters_with_those_values(graph, tmp_path):
             processes[spec.name] = subprocess.Popen(
                 command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         for spec in nodes:
-            expected = data[spec.name]['ros__parameters']
+            expected = flatten(data[spec.name]['ros__parameters'])
             listed = call(node, node.create_client(ListParameters,
                                                    f'/{spec.name}/list_parameters'),
                           ListParameters.Request(), timeout=30.0)

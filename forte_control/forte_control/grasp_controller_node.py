@@ -3,7 +3,11 @@
 Serves the ``grasp`` action (forte_msgs/action/Grasp), publishes ``grasp/state``
 (GraspState, reliable + transient local, depth 1), ``gripper/command`` (ServoCommand) and
 ``arm/cmd_vel`` (TwistStamped, ``linear.z`` = lift speed, frame ``arm_frame_id``), subscribes
-``tactile/state`` (TactileState) and ``joint_states`` (JointState), and serves
+``tactile/state`` (TactileState), ``joint_states`` (JointState: mean position [rad] and
+mean effort = servo current [A] of ``joint_names``) and, optionally, ``arm/wrench``
+(WrenchStamped from a wrist force/torque sensor: the force the gripper exerts on the wrist,
+in a frame whose z axis points up, so a carried weight makes ``force.z`` negative; used by
+the lift verification when ``lift_check.use_wrench`` is true), and serves
 ``grasp/reset_fault`` (forte_msgs/srv/ResetFault). Where ``control_msgs`` is installed it
 also serves ``gripper_cmd`` (control_msgs/action/GripperCommand) so MoveIt can drive the
 gripper.
@@ -33,7 +37,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import TwistStamped
+from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
@@ -41,15 +45,22 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import (
+    DurabilityPolicy,
+    HistoryPolicy,
+    QoSProfile,
+    ReliabilityPolicy,
+    qos_profile_sensor_data,
+)
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
 
 from forte_control.node_parameters import (
     CONTROLLER_FIELDS,
-    controller_changes,
     declare_parameters,
+    parameter_changes,
     read_controller_params,
+    read_lift_check,
 )
 from forte_control.state_machine import (
     ACTIVE_STATES,
@@ -62,6 +73,7 @@ from forte_control.state_machine import (
     JointInput,
     Outcome,
     PerceptionInput,
+    WrenchInput,
 )
 from forte_msgs.action import Grasp
 from forte_msgs.msg import GraspState as GraspStateMsg
@@ -117,10 +129,11 @@ class GraspControllerNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('grasp_controller', **kwargs)
         declare_parameters(self)
-        self._machine = GraspStateMachine(read_controller_params(self))
+        self._machine = GraspStateMachine(read_controller_params(self), read_lift_check(self))
         self._perception: PerceptionInput | None = None
         self._slip_pending = False
         self._joint: JointInput | None = None
+        self._wrench: WrenchInput | None = None
         self._joint_names = list(self.get_parameter('joint_names').value)
         self._dry_run = bool(self.get_parameter('dry_run').value)
         self._step_on_perception = bool(self.get_parameter('step_on_perception').value)
@@ -158,6 +171,8 @@ class GraspControllerNode(Node):
                                                       reliable10)
         self.create_subscription(TactileState, 'tactile/state', self._on_tactile, reliable50)
         self.create_subscription(JointState, 'joint_states', self._on_joint_state, reliable10)
+        self.create_subscription(WrenchStamped, 'arm/wrench', self._on_wrench,
+                                 qos_profile_sensor_data)
         self.create_service(ResetFault, 'grasp/reset_fault', self._on_reset_fault)
         control_period = 1.0 / float(self.get_parameter('control_rate').value)
         feedback_period = 1.0 / float(self.get_parameter('feedback_rate').value)
@@ -179,17 +194,22 @@ class GraspControllerNode(Node):
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
         if not hasattr(self, '_machine'):  # declarations in __init__
             return SetParametersResult(successful=True)
-        changes, error = controller_changes(parameters)
+        changes, lift_changes, error = parameter_changes(parameters)
         if error:
             return SetParametersResult(successful=False, reason=error)
         for parameter in parameters:
             if parameter.name == 'dry_run' and self._machine.state in ACTIVE_STATES:
                 return SetParametersResult(
                     successful=False, reason='dry_run cannot change during a grasp')
+        lift_check = replace(self._machine.lift_check, **lift_changes)
+        problems = lift_check.problems()
+        if problems:
+            return SetParametersResult(successful=False, reason='; '.join(problems))
         if changes:
             ok, reason = self._machine.set_params(replace(self._machine.params, **changes))
             if not ok:
                 return SetParametersResult(successful=False, reason=reason)
+        self._machine.set_lift_check(lift_check)
         for parameter in parameters:
             if parameter.name == 'dry_run':
                 self._dry_run = bool(parameter.value)
@@ -221,16 +241,24 @@ class GraspControllerNode(Node):
                 self.counters['slip_reactions'] += 1
 
     def _on_joint_state(self, msg: JointState) -> None:
-        positions = [msg.position[i] for i, name in enumerate(msg.name)
-                     if name in self._joint_names and i < len(msg.position)]
-        if not positions:
+        indices = [i for i, name in enumerate(msg.name)
+                   if name in self._joint_names and i < len(msg.position)]
+        if not indices:
             self.counters['joint_states_without_joints'] += 1
             return
+        efforts = [msg.effort[i] for i in indices if i < len(msg.effort)]
         stamp = self._now() if self._use_receive_time else stamp_to_seconds(msg.header.stamp)
-        self._joint = JointInput(stamp=stamp, theta=float(sum(positions) / len(positions)))
+        self._joint = JointInput(
+            stamp=stamp, theta=float(sum(msg.position[i] for i in indices) / len(indices)),
+            effort=float(sum(efforts) / len(efforts)) if len(efforts) == len(indices) else None)
+
+    def _on_wrench(self, msg: WrenchStamped) -> None:
+        stamp = self._now() if self._use_receive_time else stamp_to_seconds(msg.header.stamp)
+        # WrenchInput.force_z is the load the wrist carries, + = pulling the gripper down
+        self._wrench = WrenchInput(stamp=stamp, force_z=-float(msg.wrench.force.z))
 
     def _inputs(self) -> ControlInputs:
-        return ControlInputs(perception=self._perception, joint=self._joint)
+        return ControlInputs(perception=self._perception, joint=self._joint, wrench=self._wrench)
 
     # -- stepping and outputs ------------------------------------------------------------
     def _step(self) -> ControlOutputs:

@@ -3,8 +3,12 @@
 A fake gripper world node behaves like the simulator + perception node + gripper driver +
 arm: every tick it advances simulated time by 10 ms and publishes it on ``/clock``, moves its
 servo towards the commanded angle, integrates the arm velocity, senses contact / force once
-the fingers close on an object and publishes TactileState and JointState stamped with the
-simulated time; it can inject slip, drop the object or stop publishing (stale data). The
+the fingers close on an object and publishes TactileState, JointState (position and servo
+current) and a wrist WrenchStamped stamped with the simulated time; it can inject slip, drop
+the object, leave it on the table while the fingers slide up it, or stop publishing (stale
+data). The tactile pattern follows the physics the lift verification relies on: a carried
+object loads both fingers equally and its weight shears the pads the same way however high
+the arm is; an object the table holds against one finger loads that finger more. The
 controller runs on that clock (``use_sim_time``) with its default freshness bounds, so a
 slow or loaded machine slows the test instead of making its data look stale. An action
 client node sends Grasp goals.
@@ -21,7 +25,7 @@ from collections.abc import Callable
 import pytest
 import rclpy
 import rclpy.time
-from geometry_msgs.msg import TwistStamped
+from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -54,6 +58,9 @@ FAST = {
     'use_sim_time': True,
 }
 TICK = 0.01          # simulated time per world tick (one perception update) [s]
+GAIN = 0.5           # tactile response of each channel to the squeeze [normalised / rad]
+FREE_CURRENT = 0.05  # servo current while moving freely [A]
+CURRENT_GAIN = 2.0   # current rise per rad of squeeze [A/rad]
 WALL_LIMIT = 120.0   # a wait that lasts this long in wall time means a hang [s]
 
 
@@ -69,6 +76,9 @@ class FakeWorld(Node):
         self.contact_angle = 0.5       # fingers touch the object here [rad]
         self.stiffness = 10.0          # [N/rad]
         self.object_present = True
+        self.table_holds = False       # object stays on the table, pressed against one finger
+        self.tactile_contact = True    # False: a very soft object, no contact flag / pattern
+        self.weight = 2.0              # object weight carried at the wrist once lifted [N]
         self.lift = 0.0                # [m]
         self.arm_velocity = 0.0
         self.publish_perception = True
@@ -82,6 +92,7 @@ class FakeWorld(Node):
         self.clock_pub = self.create_publisher(Clock, '/clock', RELIABLE10)
         self.tactile_pub = self.create_publisher(TactileState, 'tactile/state', RELIABLE50)
         self.joint_pub = self.create_publisher(JointState, 'joint_states', RELIABLE10)
+        self.wrench_pub = self.create_publisher(WrenchStamped, 'arm/wrench', RELIABLE10)
         self.create_subscription(ServoCommand, 'gripper/command', self.on_servo, RELIABLE10)
         self.create_subscription(TwistStamped, 'arm/cmd_vel', self.on_arm, RELIABLE10)
         self.create_subscription(GraspStateMsg, 'grasp/state', self.states.append, LATCHED)
@@ -112,29 +123,44 @@ class FakeWorld(Node):
         self.lift += self.arm_velocity * TICK
         squeeze = self.contact_angle - self.theta
         in_contact = self.object_present and squeeze > 0.0
+        carried = in_contact and not self.table_holds and self.lift > 0.0
         stamp = to_time(self.sim_time - self.stamp_offset)
         self.sample_index += 20
         if self.publish_perception:
-            msg = TactileState()
-            msg.header.stamp = stamp
-            msg.header.frame_id = 'forte_base_link'
-            msg.sample_index = self.sample_index
-            msg.force = self.stiffness * squeeze if in_contact else 0.0
-            msg.force_valid = True
-            msg.contact = [in_contact, in_contact]
-            msg.slip = self.slip_next
-            self.slip_next = False
-            msg.slip_active = True
-            msg.data_valid = True
-            msg.tared = True
-            msg.filtered = [0.05 * squeeze if in_contact else 0.0] * 6
-            self.tactile_pub.publish(msg)
+            self.tactile_pub.publish(self.tactile(stamp, squeeze, in_contact))
         if self.publish_joints:
             joints = JointState()
             joints.header.stamp = stamp
             joints.name = ['forte_left_finger_joint', 'forte_right_finger_joint']
             joints.position = [self.theta, self.theta]
+            current = FREE_CURRENT + (CURRENT_GAIN * squeeze if in_contact else 0.0)
+            joints.effort = [current, current]
             self.joint_pub.publish(joints)
+        wrench = WrenchStamped()
+        wrench.header.stamp = stamp
+        wrench.wrench.force.z = -self.weight if carried else 0.0  # z up: a weight pulls down
+        self.wrench_pub.publish(wrench)
+
+    def tactile(self, stamp, squeeze: float, in_contact: bool) -> TactileState:
+        """The perception of the current squeeze (both fingers alike unless the table holds
+        the object against the left finger once the arm moved)."""
+        sensed = in_contact and self.tactile_contact
+        msg = TactileState()
+        msg.header.stamp = stamp
+        msg.header.frame_id = 'forte_base_link'
+        msg.sample_index = self.sample_index
+        msg.force = self.stiffness * squeeze if sensed else 0.0
+        msg.force_valid = True
+        msg.contact = [sensed, sensed]
+        msg.slip = self.slip_next
+        self.slip_next = False
+        msg.slip_active = True
+        msg.data_valid = True
+        msg.tared = True
+        level = GAIN * squeeze if sensed else 0.0
+        left = 2.0 * level if self.table_holds and self.lift > 0.0 else level
+        msg.filtered = [left] * 3 + [level] * 3
+        return msg
 
 
 def to_time(seconds: float):
@@ -338,6 +364,47 @@ def test_no_joint_states_refuses_goal_before_motion(harness):
     assert all(msg.twist.linear.z == 0.0 for _, msg in harness.world.arm_log)
 
 
+def test_object_left_on_the_table_is_not_carried(harness):
+    """The fingers slide up an object the table holds against one finger: the lift is
+    commanded to the end, but the result says NOT_CARRIED (aborted), with the evidence."""
+    harness.world.table_holds = True
+    handle = harness.send(controller=Grasp.Goal.NO_SLIP)
+    response = harness.result(handle)
+    assert response.result.outcome == Outcome.NOT_CARRIED, response.result.message
+    assert response.status == STATUS_ABORTED
+    assert 'unequal' in response.result.message
+    assert response.result.lift_height == pytest.approx(0.005, abs=0.001)
+    assert harness.spin_until(lambda: harness.world.states[-1].last_outcome
+                              == Outcome.NOT_CARRIED, 1.0)
+
+
+@pytest.mark.parametrize('harness', [{'lift_check.use_wrench': True}], indirect=True)
+def test_wrist_wrench_confirms_the_load(harness):
+    """With ``lift_check.use_wrench``, LIFTED needs the wrist to carry more once lifted; a
+    wrist that feels no load makes the same tactile evidence NOT_CARRIED."""
+    response = harness.result(harness.send())
+    assert response.result.outcome == Outcome.LIFTED, response.result.message
+    assert 'wrist load +2.000 N' in response.result.message
+    harness.world.theta = 0.7  # open again, and lift an object of no weight
+    harness.world.command = None
+    harness.world.lift = 0.0
+    harness.world.weight = 0.0
+    response = harness.result(harness.send())
+    assert response.result.outcome == Outcome.NOT_CARRIED, response.result.message
+    assert 'wrist load grew 0.000 N' in response.result.message
+
+
+def test_closed_on_a_soft_object_without_contact_flag(harness):
+    """An object too soft to trip the contact flag still blocks the joint and raises the
+    servo current (JointState effort): CLOSED_ON_OBJECT, not a benign NO_CONTACT."""
+    harness.world.tactile_contact = False
+    response = harness.result(harness.send())
+    assert response.result.outcome == Outcome.CLOSED_ON_OBJECT, response.result.message
+    assert 'joint stopped' in response.result.message
+    assert 'servo current' in response.result.message  # effort reached the machine
+    assert response.status == STATUS_ABORTED
+
+
 def test_drop_detected_from_sensors(harness):
     harness.controller.set_parameters([Parameter('lift_distance', value=0.03)])
     handle = harness.lifting(controller=Grasp.Goal.NO_SLIP)
@@ -370,8 +437,10 @@ def test_dry_run_computes_but_publishes_no_motion(harness):
     feedback = []
     handle = harness.send(feedback)
     result = harness.result(handle).result
-    assert result.outcome in (Outcome.NO_CONTACT, Outcome.TIMEOUT, Outcome.LIFTED,
-                              Outcome.DROPPED)
+    # nothing moved the joint, so the machine closed its command on a joint that stayed open:
+    # from its inputs, the gripper is blocked on something
+    assert result.outcome == Outcome.CLOSED_ON_OBJECT, result.message
+    assert 'joint stopped at 0.700 rad' in result.message
     assert harness.world.servo_log == []
     assert harness.world.arm_log and all(msg.twist.linear.z == 0.0
                                          for _, msg in harness.world.arm_log)
