@@ -333,15 +333,13 @@ class DropDetector:
                     and perception.force < p.drop_force_fraction * self.reference_force):
                 reasons.append(f'force {perception.force:.3f} N < {p.drop_force_fraction:g} x '
                                f'{self.reference_force:.3f} N')
-        if perception.filtered is not None:
-            values = [abs(v) for v in perception.filtered if math.isfinite(v)]
-            if values:
-                level = sum(values) / len(values)
-                self.reference_level = max(self.reference_level, level)
-                if (self.reference_level >= p.drop_min_reference_level
-                        and level < p.drop_level_fraction * self.reference_level):
-                    reasons.append(f'deformation {level:.4f} < {p.drop_level_fraction:g} x '
-                                   f'{self.reference_level:.4f}')
+        level = deformation_level(perception.filtered)
+        if level is not None:
+            self.reference_level = max(self.reference_level, level)
+            if (self.reference_level >= p.drop_min_reference_level
+                    and level < p.drop_level_fraction * self.reference_level):
+                reasons.append(f'deformation {level:.4f} < {p.drop_level_fraction:g} x '
+                               f'{self.reference_level:.4f}')
         if p.drop_on_contact_loss and not any(perception.contact):
             reasons.append('contact lost on both fingers')
         if not reasons:

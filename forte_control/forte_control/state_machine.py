@@ -38,6 +38,13 @@ import math
 from dataclasses import dataclass, fields, replace
 from enum import IntEnum, IntFlag
 
+from forte_control.lift_check import (
+    DropDetector,
+    LiftCheckParams,
+    LiftMonitor,
+    WrenchInput,
+    closed_on_object_evidence,
+)
 from forte_control.parameters import (  # noqa: F401 - HARD_MAX_* re-exported
     HARD_MAX_ANGLE,
     HARD_MAX_CURRENT,
@@ -49,13 +56,6 @@ from forte_control.parameters import (  # noqa: F401 - HARD_MAX_* re-exported
     HARD_MAX_SLIP_INCREMENT,
     HARD_MAX_TIGHTENING,
     range_problems,
-)
-from .lift_check import (
-    DropDetector,
-    LiftCheckParams,
-    LiftMonitor,
-    WrenchInput,
-    closed_on_object_evidence,
 )
 
 # ---------------------------------------------------------------------------------------
