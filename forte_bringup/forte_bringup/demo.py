@@ -199,6 +199,7 @@ def run(objects: list[str], controllers: list[str], output: Path, settle: float,
                         object=object_name, controller=controller,
                         object_state=OBJECT_STATES.get(truth.object_state, '?')
                         if truth else '?',
+                        object_height=truth.object_height if truth else float('nan'),
                         max_true_force=client.max_true_force,
                         true_slip_onsets=truth.slip_onsets if truth else 0)
                     windows.append((label, first, time.time_ns()))

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from demo_scenes import EXPECTED, closed_loop_results, mismatches
 
 from forte_bringup.closed_loop import _controller, default_force_model, run_trial
 from forte_control.state_machine import PAPER_SLIP_INCREMENT, Controller, GraspState
@@ -127,3 +128,11 @@ def test_bad_arguments_are_refused():
         run_trial(FRAGILE, 'FORTE', chunk_samples=0)
     with pytest.raises(ValueError, match='unknown object'):
         run_trial('unobtainium', 'FORTE')
+
+
+def test_the_demo_scenes_end_as_the_physics_says(model):
+    """The closed loop on the demo's nine scenes gives the pattern the demo test demands of
+    the full ROS graph (demo_scenes.EXPECTED): the graph and run_trial agree."""
+    results = closed_loop_results(model)
+    assert set(results) == set(EXPECTED)
+    assert not mismatches(results), mismatches(results)

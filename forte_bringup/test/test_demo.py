@@ -2,21 +2,10 @@
 
 Each grasp's outcome is checked against the simulator's ground truth (``sim/ground_truth``,
 recorded by the demo after the result; the controller never sees it): the exact outcome and
-object state each scripted grasp must end in, from the physics of the scene (sim.yaml: seed
-0, the same placement for every controller).
-
-Two grasps have no single physical outcome over DDS: FORTE on the soda can and on the glass
-bottle. Their grip is just enough by design (+0.88 deg per slip until the slip stops), so
-whether the weight transfers before the lift ends is a race between stick-slip episodes and
-tightenings. In the graph, a tightening reaches the simulated servo 20-170 ms (simulated
-time, real-time factor 0.5) after the slip flag, varying with the machine's load (measured
-from the demo bags: command stamp to joint state at the new angle; the controller itself
-answers within the perception update that carries the flag); in the closed loop the same
-scene flips between carried and not carried when only the perception batch size changes
-(10, 20, 30, 40 samples). Over five graph runs the soda can ended carried twice and on the
-table three times, the glass bottle carried four times out of five. For those two the test
-demands the truth instead: LIFTED exactly when the can hangs in the grasp, NOT_CARRIED
-exactly when it stayed on the table.
+object state each scripted grasp must end in, from the physics of the scene
+(``demo_scenes.EXPECTED``, which also says why two of them can only be held to the truth).
+The same nine scenes run through ``run_trial`` (the closed loop of the evaluation) must give
+the same pattern: the numbers of the evaluation are those of the graph.
 """
 from __future__ import annotations
 
@@ -25,29 +14,11 @@ import subprocess
 import sys
 
 import pytest
+from demo_scenes import EXPECTED, closed_loop_results, mismatches
 from mcap.reader import make_reader
 
+from forte_bringup.closed_loop import default_force_model
 from forte_bringup.demo import DEFAULT_CONTROLLERS, DEFAULT_OBJECTS
-
-#: The two (outcome, truth) pairs in which the controller tells the truth about carrying.
-TRUTHFUL = {('LIFTED', 'HELD'), ('NOT_CARRIED', 'RESTING')}
-#: (object, controller) -> (controller's outcome, ground-truth object state after the grasp),
-#: or 'TRUTHFUL' where the physics goes either way (module docstring).
-EXPECTED = {
-    # 4 g, fragile: 0.25 N lifts it intact; ON_OFF's full close crushes it, in the grasp
-    ('raspberry', 'FORTE'): ('LIFTED', 'HELD'),
-    ('raspberry', 'NO_SLIP'): ('LIFTED', 'HELD'),
-    ('raspberry', 'ON_OFF'): ('LIFTED', 'CRUSHED'),
-    # 385 g / 200 g, slippery: 0.25 N cannot lift them, the fingers slide up the object that
-    # stays on the table (the controller used to say LIFTED); ON_OFF squeezes hard enough;
-    # FORTE's race with the stick-slip goes either way over DDS (module docstring)
-    ('soda_can', 'FORTE'): 'TRUTHFUL',
-    ('soda_can', 'NO_SLIP'): ('NOT_CARRIED', 'RESTING'),
-    ('soda_can', 'ON_OFF'): ('LIFTED', 'HELD'),
-    ('glass_bottle', 'FORTE'): 'TRUTHFUL',
-    ('glass_bottle', 'NO_SLIP'): ('NOT_CARRIED', 'RESTING'),
-    ('glass_bottle', 'ON_OFF'): ('LIFTED', 'HELD'),
-}
 
 
 @pytest.mark.slow
@@ -61,13 +32,18 @@ def test_demo_grasps_end_as_the_physics_says_and_the_report_shows_them(tmp_path)
     assert process.returncode == 0, process.stdout[-3000:] + process.stderr[-3000:]
     assert '[demo] 1/9 raspberry / FORTE: grasping' in process.stdout  # progress shown
     rows = json.loads((output / 'outcomes.json').read_text())
-    got = {(r['object'], r['controller']): (r['outcome'], r['object_state']) for r in rows}
+    graph = {(r['object'], r['controller']): (r['outcome'], r['object_state'],
+                                              r.get('object_height', float('nan')))
+             for r in rows}
     messages = {(r['object'], r['controller']): r.get('message', '') for r in rows}
-    wrong = {key: (got.get(key), expected, messages.get(key)) for key, expected
-             in EXPECTED.items()
-             if (got.get(key) not in TRUTHFUL if expected == 'TRUTHFUL'
-                 else got.get(key) != expected)}
-    assert not wrong, wrong
+    wrong = mismatches(graph)
+    assert not wrong, {key: (*value, messages.get(key)) for key, value in wrong.items()}
+    # the closed loop on the same scenes: the same outcome and truth wherever the physics
+    # has a single answer
+    closed_loop = closed_loop_results(default_force_model())
+    differ = {key: (graph[key][:2], closed_loop[key][:2]) for key, expected in EXPECTED.items()
+              if expected != 'TRUTHFUL' and graph[key][:2] != closed_loop[key][:2]}
+    assert not differ, differ
     for row in rows:  # the claim comes with its evidence
         if row['outcome'] == 'LIFTED':
             assert 'equal' in row['message'] and 'when set down' in row['message']
