@@ -104,7 +104,7 @@ def record_from_result(result: object, task: Task) -> TrialRecord:
 
     Uses the result's ``success``, ``outcome``, ``object_state``, ``slip_true``,
     ``slip_predicted``, ``slip_onset_times`` / ``slip_flag_times`` (for latencies; when
-    present), ``max_true_force`` and ``duration`` fields.
+    present), ``max_true_force``, ``duration`` and ``final_height`` fields.
     """
     from forte_bringup.metrics import detection_latencies
 
@@ -125,6 +125,7 @@ def record_from_result(result: object, task: Task) -> TrialRecord:
         max_true_force=float(_get(result, 'max_true_force', math.nan)),
         duration=float(_get(result, 'duration', math.nan)),
         object_state_at_outcome=str(getattr(at_outcome, 'name', at_outcome)),
+        final_height=float(_get(result, 'final_height', math.nan)),
     )
 
 

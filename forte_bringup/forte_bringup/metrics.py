@@ -17,7 +17,9 @@ performance" (tables/result_table.tex) and its conventions:
 And one table the paper does not have: the confusion matrix of the controller's own outcome
 against the simulator's ground-truth object state, per controller, with the number of trials
 in which the controller contradicts the truth on whether the object was carried
-(:func:`contradicts_carried`).
+(:func:`contradicts_carried`). "Carried" means what a grasp's success means: held by the
+fingers at least :data:`CARRIED_HEIGHT` above the table; an object the fingers still hold
+but that slid down them to below that height is labelled ``HELD_LOW`` (:func:`truth_label`).
 """
 from __future__ import annotations
 
@@ -77,6 +79,8 @@ class TrialRecord:
         Ground-truth object state at the end (``HELD``, ``DROPPED``, ``BROKEN``, ...).
     object_state_at_outcome : str
         Ground-truth object state when the controller reached its outcome ('' if unknown).
+    final_height : float
+        Ground-truth object height above the table at the end [m] (NaN if unknown).
     slip_true : bool
         Ground truth: at least one slip onset during the lift.
     slip_predicted : bool
@@ -106,6 +110,7 @@ class TrialRecord:
     max_true_force: float = float('nan')
     duration: float = float('nan')
     object_state_at_outcome: str = ''
+    final_height: float = float('nan')
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary."""
@@ -380,20 +385,46 @@ def summary_json(records: Sequence[TrialRecord]) -> dict:
 #: Grasp outcomes in table order (forte_msgs/action/Grasp result constants).
 OUTCOME_ORDER = ('LIFTED', 'NOT_CARRIED', 'DROPPED', 'NO_CONTACT', 'CLOSED_ON_OBJECT',
                  'FORCE_LIMIT', 'TIMEOUT', 'CANCELED', 'FAULT')
-#: Ground-truth object states in table order (forte_msgs/msg/SimGroundTruth OBJECT_*).
-TRUTH_ORDER = ('HELD', 'RESTING', 'DROPPED', 'BROKEN', 'CRUSHED')
+#: Ground-truth labels in table order: the object states of forte_msgs/msg/SimGroundTruth
+#: (OBJECT_*), with HELD split by height (:func:`truth_label`).
+TRUTH_ORDER = ('HELD', 'HELD_LOW', 'RESTING', 'DROPPED', 'BROKEN', 'CRUSHED')
+
+#: Lowest object height above the table that counts as carried: the success height of the
+#: evaluation (``closed_loop.run_trial(success_height=...)``) [m].
+CARRIED_HEIGHT = 0.005
+
+
+def truth_label(state: str, height: float = float('nan')) -> str:
+    """The ground-truth label of an object state and height.
+
+    Parameters
+    ----------
+    state : str
+        Ground-truth object state (``HELD``, ``RESTING``, ...).
+    height : float
+        Object height above the table [m]; NaN when unknown (the state is kept).
+
+    Returns
+    -------
+    str
+        ``state``, or ``HELD_LOW`` for an object held below :data:`CARRIED_HEIGHT` (it slid
+        down the fingers, e.g. 1.5 mm above the table after a 30 mm lift: not carried).
+    """
+    if state == 'HELD' and math.isfinite(height) and height < CARRIED_HEIGHT:
+        return 'HELD_LOW'
+    return state
 
 
 def contradicts_carried(outcome: str, truth: str) -> bool:
     """True when the outcome and the truth disagree on whether the object was carried.
 
-    LIFTED claims the object is carried: wrong if it is on the table (RESTING) or fell
-    (DROPPED). DROPPED and NOT_CARRIED claim it is not: wrong if it is HELD. A BROKEN or
-    CRUSHED object may or may not hang in the grasp (the truth does not say), so no claim
-    about carrying is checked against those states.
+    LIFTED claims the object is carried: wrong if it is on the table (RESTING), fell
+    (DROPPED) or hangs below the carried height (HELD_LOW). DROPPED and NOT_CARRIED claim it
+    is not: wrong if it is HELD. A BROKEN or CRUSHED object may or may not hang in the grasp
+    (the truth does not say), so no claim about carrying is checked against those states.
     """
     if outcome == 'LIFTED':
-        return truth in ('RESTING', 'DROPPED')
+        return truth in ('RESTING', 'DROPPED', 'HELD_LOW')
     if outcome in ('DROPPED', 'NOT_CARRIED'):
         return truth == 'HELD'
     return False
@@ -409,8 +440,9 @@ def confusion(records: Iterable[TrialRecord], controller: str,
     controller : str
         Controller key; other records are ignored.
     at_outcome : bool
-        Use the truth at the controller's outcome instead of the truth at the end of the
-        trial (records without it fall back to the final truth).
+        Use the truth at the controller's outcome (its state only: the height is known at
+        the end) instead of the truth at the end of the trial (:func:`truth_label` of the
+        final state and height; records without a state at the outcome fall back to it).
 
     Returns
     -------
@@ -421,8 +453,8 @@ def confusion(records: Iterable[TrialRecord], controller: str,
     for record in records:
         if record.controller != controller:
             continue
-        truth = (record.object_state_at_outcome or record.object_state) if at_outcome \
-            else record.object_state
+        final = truth_label(record.object_state, record.final_height)
+        truth = (record.object_state_at_outcome or final) if at_outcome else final
         row = table.setdefault(record.outcome, {})
         row[truth] = row.get(truth, 0) + 1
     return table
@@ -443,13 +475,14 @@ def confusion_table(records: Sequence[TrialRecord], at_outcome: bool = False) ->
     Each controller ends with a row ``contradicts truth`` counting the trials in which the
     outcome and the truth disagree on whether the object was carried.
     """
-    truths = list(TRUTH_ORDER) + sorted({(r.object_state_at_outcome or r.object_state)
-                                         if at_outcome else r.object_state
-                                         for r in records} - set(TRUTH_ORDER))
+    matrices = {controller: confusion(records, controller, at_outcome)
+                for controller in CONTROLLER_LABELS}
+    seen = {truth for matrix in matrices.values() for row in matrix.values() for truth in row}
+    truths = list(TRUTH_ORDER) + sorted(seen - set(TRUTH_ORDER))
     header = ['controller', 'outcome \\ truth', *truths, 'total']
     rows = []
     for controller, label in CONTROLLER_LABELS.items():
-        matrix = confusion(records, controller, at_outcome)
+        matrix = matrices[controller]
         if not matrix:
             continue
         outcomes = [o for o in OUTCOME_ORDER if o in matrix] + sorted(

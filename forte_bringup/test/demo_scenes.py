@@ -17,11 +17,7 @@ the fingers, on the table). For those two the tests demand the truth instead
 """
 from __future__ import annotations
 
-import math
-
-#: Height an object must hang above the table to count as carried: the evaluation's success
-#: height (closed_loop.run_trial ``success_height``) [m].
-CARRIED_HEIGHT = 0.005
+from forte_bringup.metrics import contradicts_carried, truth_label
 
 #: (object, controller) -> (outcome, ground-truth object state after the grasp), or
 #: 'TRUTHFUL' where the physics goes either way (module docstring).
@@ -43,12 +39,13 @@ EXPECTED = {
 
 
 def truthful(outcome: str, state: str, height: float) -> bool:
-    """The outcome tells the truth about carrying: LIFTED exactly when the object hangs in
-    the grasp at least :data:`CARRIED_HEIGHT` above the table, NOT_CARRIED exactly when it
-    does not (on the table, or slid down the fingers to within that height of it)."""
-    carried = state == 'HELD' and math.isfinite(height) and height >= CARRIED_HEIGHT
-    return (outcome, carried) in (('LIFTED', True), ('NOT_CARRIED', False)) \
-        and state in ('HELD', 'RESTING')
+    """The outcome is LIFTED or NOT_CARRIED and tells the truth about carrying, as the
+    evaluation judges it (``metrics.contradicts_carried``): LIFTED exactly when the object
+    hangs in the grasp at least ``metrics.CARRIED_HEIGHT`` above the table, NOT_CARRIED when
+    it is on the table or slid down the fingers to below that height."""
+    label = truth_label(state, height)
+    return outcome in ('LIFTED', 'NOT_CARRIED') and label in ('HELD', 'HELD_LOW', 'RESTING') \
+        and not contradicts_carried(outcome, label)
 
 
 def mismatches(got: dict[tuple[str, str], tuple[str, str, float]]) -> dict:

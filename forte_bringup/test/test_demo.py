@@ -50,7 +50,8 @@ def test_demo_grasps_end_as_the_physics_says_and_the_report_shows_them(tmp_path)
             assert row['lift_height'] == pytest.approx(0.03, abs=0.001)
     report = (output / 'report.md').read_text()
     assert '| glass_bottle | ON_OFF | LIFTED | HELD |' in report
-    assert '| soda_can | NO_SLIP | NOT_CARRIED | RESTING |' in report
+    assert '| soda_can | NO_SLIP | NOT_CARRIED | RESTING | 0.0 | yes |' in report
+    assert ' | NO | ' not in report  # the report shows outcome and truth agreeing throughout
     for obj, controller in EXPECTED:
         figure = output / f'{obj}_{controller}.png'
         assert figure.name in report and figure.read_bytes()[:4] == b'\x89PNG'

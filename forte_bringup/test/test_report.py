@@ -84,11 +84,26 @@ def test_plot_grasp_writes_a_png(bag, tmp_path):
 
 def test_outcome_table_known_row():
     table = outcome_table([{'object': 'raspberry', 'controller': 'FORTE', 'outcome': 'LIFTED',
-                            'object_state': 'HELD', 'lift_height': 0.03,
-                            'final_force': 0.2512, 'max_true_force': 0.31,
+                            'object_state': 'HELD', 'object_height': 0.0301,
+                            'lift_height': 0.03, 'final_force': 0.2512, 'max_true_force': 0.31,
                             'slip_events': 2, 'tightening': math.radians(1.76),
                             'true_slip_onsets': 3, 'duration': 8.04}])
     lines = table.splitlines()
     assert len(lines) == 3
-    assert lines[2] == ('| raspberry | FORTE | LIFTED | HELD | 30.0 | 0.25 | 0.31 | 2 | 1.76 '
-                        '| 3 | 8.0 |')
+    assert lines[2] == ('| raspberry | FORTE | LIFTED | HELD | 30.1 | yes | 30.0 | 0.25 | 0.31 '
+                        '| 2 | 1.76 | 3 | 8.0 |')
+
+
+@pytest.mark.parametrize('outcome, state, height, agrees', [
+    ('LIFTED', 'RESTING', 0.0, 'NO'),          # the old controller's claim on a resting can
+    ('LIFTED', 'HELD', 0.0015, 'NO'),          # slid down the fingers: not carried
+    ('NOT_CARRIED', 'HELD', 0.0015, 'yes'),
+    ('NOT_CARRIED', 'RESTING', 0.0, 'yes'),
+    ('DROPPED', 'HELD', 0.03, 'NO'),
+    ('LIFTED', 'CRUSHED', 0.03, '-'),          # the truth does not say whether it hangs
+    ('NO_CONTACT', 'RESTING', 0.0, '-'),       # no claim about carrying
+])
+def test_outcome_table_says_whether_outcome_and_truth_agree(outcome, state, height, agrees):
+    table = outcome_table([{'object': 'soda_can', 'controller': 'FORTE', 'outcome': outcome,
+                            'object_state': state, 'object_height': height}])
+    assert table.splitlines()[2].split(' | ')[5] == agrees
