@@ -17,9 +17,9 @@ performance" (tables/result_table.tex) and its conventions:
 And one table the paper does not have: the confusion matrix of the controller's own outcome
 against the simulator's ground-truth object state, per controller, with the number of trials
 in which the controller contradicts the truth on whether the object was carried
-(:func:`contradicts_carried`). "Carried" means what a grasp's success means: held by the
-fingers at least :data:`CARRIED_HEIGHT` above the table; an object the fingers still hold
-but that slid down them to below that height is labelled ``HELD_LOW`` (:func:`truth_label`).
+(:func:`contradicts_carried`). "Carried" is the ground-truth state HELD: the object hangs
+from the fingers, however far it slid down them (an object held 2.4 mm above the table after
+sliding 28 mm down the fingers is carried, though not a success, which needs 5 mm).
 """
 from __future__ import annotations
 
@@ -385,46 +385,20 @@ def summary_json(records: Sequence[TrialRecord]) -> dict:
 #: Grasp outcomes in table order (forte_msgs/action/Grasp result constants).
 OUTCOME_ORDER = ('LIFTED', 'NOT_CARRIED', 'DROPPED', 'NO_CONTACT', 'CLOSED_ON_OBJECT',
                  'FORCE_LIMIT', 'TIMEOUT', 'CANCELED', 'FAULT')
-#: Ground-truth labels in table order: the object states of forte_msgs/msg/SimGroundTruth
-#: (OBJECT_*), with HELD split by height (:func:`truth_label`).
-TRUTH_ORDER = ('HELD', 'HELD_LOW', 'RESTING', 'DROPPED', 'BROKEN', 'CRUSHED')
-
-#: Lowest object height above the table that counts as carried: the success height of the
-#: evaluation (``closed_loop.run_trial(success_height=...)``) [m].
-CARRIED_HEIGHT = 0.005
-
-
-def truth_label(state: str, height: float = float('nan')) -> str:
-    """The ground-truth label of an object state and height.
-
-    Parameters
-    ----------
-    state : str
-        Ground-truth object state (``HELD``, ``RESTING``, ...).
-    height : float
-        Object height above the table [m]; NaN when unknown (the state is kept).
-
-    Returns
-    -------
-    str
-        ``state``, or ``HELD_LOW`` for an object held below :data:`CARRIED_HEIGHT` (it slid
-        down the fingers, e.g. 1.5 mm above the table after a 30 mm lift: not carried).
-    """
-    if state == 'HELD' and math.isfinite(height) and height < CARRIED_HEIGHT:
-        return 'HELD_LOW'
-    return state
+#: Ground-truth object states in table order (forte_msgs/msg/SimGroundTruth OBJECT_*).
+TRUTH_ORDER = ('HELD', 'RESTING', 'DROPPED', 'BROKEN', 'CRUSHED')
 
 
 def contradicts_carried(outcome: str, truth: str) -> bool:
     """True when the outcome and the truth disagree on whether the object was carried.
 
-    LIFTED claims the object is carried: wrong if it is on the table (RESTING), fell
-    (DROPPED) or hangs below the carried height (HELD_LOW). DROPPED and NOT_CARRIED claim it
-    is not: wrong if it is HELD. A BROKEN or CRUSHED object may or may not hang in the grasp
-    (the truth does not say), so no claim about carrying is checked against those states.
+    LIFTED claims the object is carried: wrong if it is on the table (RESTING) or fell
+    (DROPPED). DROPPED and NOT_CARRIED claim it is not: wrong if it is HELD. A BROKEN or
+    CRUSHED object may or may not hang in the grasp (the truth does not say), so no claim
+    about carrying is checked against those states.
     """
     if outcome == 'LIFTED':
-        return truth in ('RESTING', 'DROPPED', 'HELD_LOW')
+        return truth in ('RESTING', 'DROPPED')
     if outcome in ('DROPPED', 'NOT_CARRIED'):
         return truth == 'HELD'
     return False
@@ -440,9 +414,8 @@ def confusion(records: Iterable[TrialRecord], controller: str,
     controller : str
         Controller key; other records are ignored.
     at_outcome : bool
-        Use the truth at the controller's outcome (its state only: the height is known at
-        the end) instead of the truth at the end of the trial (:func:`truth_label` of the
-        final state and height; records without a state at the outcome fall back to it).
+        Use the truth at the controller's outcome instead of the truth at the end of the
+        trial (records without it fall back to the final truth).
 
     Returns
     -------
@@ -453,8 +426,8 @@ def confusion(records: Iterable[TrialRecord], controller: str,
     for record in records:
         if record.controller != controller:
             continue
-        final = truth_label(record.object_state, record.final_height)
-        truth = (record.object_state_at_outcome or final) if at_outcome else final
+        truth = (record.object_state_at_outcome or record.object_state) if at_outcome \
+            else record.object_state
         row = table.setdefault(record.outcome, {})
         row[truth] = row.get(truth, 0) + 1
     return table

@@ -215,11 +215,11 @@ def outcome_table(rows: Sequence[dict]) -> str:
     """Markdown table of grasp outcomes (one row per grasp).
 
     The column "agrees" says whether the controller's outcome and the ground truth agree on
-    whether the object was carried (:func:`forte_bringup.metrics.contradicts_carried` on the
-    truth label of the object's state and height): ``yes``, ``NO``, or ``-`` where the
-    outcome makes no claim about carrying or the truth cannot judge it.
+    whether the object was carried (:func:`forte_bringup.metrics.contradicts_carried`, as the
+    evaluation judges it): ``yes``, ``NO``, or ``-`` where the outcome makes no claim about
+    carrying or the truth cannot judge it (BROKEN, CRUSHED).
     """
-    from forte_bringup.metrics import contradicts_carried, truth_label
+    from forte_bringup.metrics import contradicts_carried
 
     header = ['object', 'controller', 'outcome', 'object (truth)', 'object height [mm]',
               'agrees', 'lift [mm]', 'final force [N]', 'max true force [N]', 'slip events',
@@ -228,12 +228,12 @@ def outcome_table(rows: Sequence[dict]) -> str:
     for row in rows:
         outcome = row.get('outcome', '')
         height = row.get('object_height', math.nan)
-        label = truth_label(row.get('object_state', ''), height)
+        state = row.get('object_state', '')
         claims = outcome in ('LIFTED', 'NOT_CARRIED', 'DROPPED') \
-            and label in ('HELD', 'HELD_LOW', 'RESTING', 'DROPPED')
-        agrees = ('NO' if contradicts_carried(outcome, label) else 'yes') if claims else '-'
-        cells = [row.get('object', ''), row.get('controller', ''), outcome,
-                 row.get('object_state', ''), f'{1000 * height:.1f}', agrees,
+            and state in ('HELD', 'RESTING', 'DROPPED')
+        agrees = ('NO' if contradicts_carried(outcome, state) else 'yes') if claims else '-'
+        cells = [row.get('object', ''), row.get('controller', ''), outcome, state,
+                 f'{1000 * height:.1f}', agrees,
                  f"{1000 * row.get('lift_height', math.nan):.1f}",
                  f"{row.get('final_force', math.nan):.2f}",
                  f"{row.get('max_true_force', math.nan):.2f}",

@@ -24,7 +24,6 @@ from forte_bringup.metrics import (
     slip_scores,
     summarize,
     summary_json,
-    truth_label,
 )
 
 
@@ -136,6 +135,7 @@ def test_force_table_shows_ours_and_paper():
 
 
 def outcome_record(outcome, truth, controller='FORTE', at_outcome='', height=0.03):
+    """A record of one outcome against one truth (height: the object's at the end [m])."""
     return TrialRecord(object_name='soda_can', category='slippery', controller=controller,
                        trial=0, success=outcome == 'LIFTED' and truth == 'HELD',
                        outcome=outcome, object_state=truth,
@@ -145,8 +145,6 @@ def outcome_record(outcome, truth, controller='FORTE', at_outcome='', height=0.0
 @pytest.mark.parametrize('outcome, truth, wrong', [
     ('LIFTED', 'HELD', False), ('LIFTED', 'RESTING', True), ('LIFTED', 'DROPPED', True),
     ('LIFTED', 'CRUSHED', False),        # crushed in the grasp: carrying not judged
-    ('LIFTED', 'HELD_LOW', True), ('NOT_CARRIED', 'HELD_LOW', False),
-    ('DROPPED', 'HELD_LOW', False),
     ('NOT_CARRIED', 'RESTING', False), ('NOT_CARRIED', 'HELD', True),
     ('DROPPED', 'DROPPED', False), ('DROPPED', 'RESTING', False), ('DROPPED', 'HELD', True),
     ('NO_CONTACT', 'RESTING', False), ('FAULT', 'HELD', False),
@@ -155,31 +153,19 @@ def test_contradiction_on_carrying(outcome, truth, wrong):
     assert contradicts_carried(outcome, truth) is wrong
 
 
-@pytest.mark.parametrize('state, height, label', [
-    ('HELD', 0.030, 'HELD'), ('HELD', 0.005, 'HELD'),        # at the carried height: carried
-    ('HELD', 0.0015, 'HELD_LOW'), ('HELD', 0.0, 'HELD_LOW'),
-    ('HELD', math.nan, 'HELD'),                               # height unknown: the state
-    ('RESTING', 0.0, 'RESTING'), ('CRUSHED', 0.001, 'CRUSHED'),
-])
-def test_truth_label_splits_held_by_height(state, height, label):
-    assert truth_label(state, height) == label
-
-
 def test_confusion_matrix_known_answer():
     records = ([outcome_record('LIFTED', 'HELD')] * 5
                + [outcome_record('LIFTED', 'RESTING', at_outcome='HELD')]
                + [outcome_record('NOT_CARRIED', 'RESTING')] * 3
                + [outcome_record('DROPPED', 'HELD')]
-               + [outcome_record('NOT_CARRIED', 'HELD', height=0.0015)]
                + [outcome_record('LIFTED', 'HELD', controller='ON_OFF')] * 2)
     matrix = confusion(records, 'FORTE')
-    assert matrix == {'LIFTED': {'HELD': 5, 'RESTING': 1},
-                      'NOT_CARRIED': {'RESTING': 3, 'HELD_LOW': 1}, 'DROPPED': {'HELD': 1}}
-    assert contradiction_count(matrix) == (2, 11)
+    assert matrix == {'LIFTED': {'HELD': 5, 'RESTING': 1}, 'NOT_CARRIED': {'RESTING': 3},
+                      'DROPPED': {'HELD': 1}}
+    assert contradiction_count(matrix) == (2, 10)
     # at the moment of the outcome the one that fell later was still held
     assert confusion(records, 'FORTE', at_outcome=True)['LIFTED'] == {'HELD': 6}
-    # (a record without a state at the outcome keeps its final label, HELD_LOW here)
-    assert contradiction_count(confusion(records, 'FORTE', at_outcome=True)) == (1, 11)
+    assert contradiction_count(confusion(records, 'FORTE', at_outcome=True)) == (1, 10)
     data = confusion_json(records)
     assert set(data) == {'FORTE', 'ON_OFF'}
     assert data['FORTE']['final']['contradictions'] == 2
@@ -189,7 +175,7 @@ def test_confusion_matrix_known_answer():
     table = confusion_table(records)
     lines = table.splitlines()
     assert [c.strip() for c in lines[0].split('|')[3:-1]] == [
-        'HELD', 'HELD_LOW', 'RESTING', 'DROPPED', 'BROKEN', 'CRUSHED', 'total']
+        'HELD', 'RESTING', 'DROPPED', 'BROKEN', 'CRUSHED', 'total']
     lifted = next(line for line in lines if 'FORTE' in line and 'LIFTED' in line)
-    assert [c.strip() for c in lifted.split('|')[3:9]] == ['5', '.', '1!', '.', '.', '.']
-    assert '**2/11 (18.2%)**' in table and '**0/2 (0.0%)**' in table
+    assert [c.strip() for c in lifted.split('|')[3:8]] == ['5', '1!', '.', '.', '.']
+    assert '**2/10 (20.0%)**' in table and '**0/2 (0.0%)**' in table
