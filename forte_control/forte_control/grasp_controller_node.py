@@ -221,14 +221,18 @@ class GraspControllerNode(Node):
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
+    def _stamp(self, header: Any) -> float:
+        """A message's time [s]: its header stamp, or the receive time (use_receive_time)."""
+        return self._now() if self._use_receive_time else stamp_to_seconds(header.stamp)
+
     def _on_tactile(self, msg: TactileState) -> None:
         received = time.perf_counter()
         if not msg.data_valid:
             self.counters['tactile_invalid'] += 1
         self._slip_pending = self._slip_pending or bool(msg.slip)
-        stamp = self._now() if self._use_receive_time else stamp_to_seconds(msg.header.stamp)
         self._perception = PerceptionInput(
-            stamp=stamp, force=float(msg.force), force_valid=bool(msg.force_valid),
+            stamp=self._stamp(msg.header), force=float(msg.force),
+            force_valid=bool(msg.force_valid),
             contact=(bool(msg.contact[0]), bool(msg.contact[1])),
             slip=self._slip_pending, slip_active=bool(msg.slip_active),
             data_valid=bool(msg.data_valid), filtered=tuple(float(v) for v in msg.filtered),
@@ -247,15 +251,15 @@ class GraspControllerNode(Node):
             self.counters['joint_states_without_joints'] += 1
             return
         efforts = [msg.effort[i] for i in indices if i < len(msg.effort)]
-        stamp = self._now() if self._use_receive_time else stamp_to_seconds(msg.header.stamp)
         self._joint = JointInput(
-            stamp=stamp, theta=float(sum(msg.position[i] for i in indices) / len(indices)),
+            stamp=self._stamp(msg.header),
+            theta=float(sum(msg.position[i] for i in indices) / len(indices)),
             effort=float(sum(efforts) / len(efforts)) if len(efforts) == len(indices) else None)
 
     def _on_wrench(self, msg: WrenchStamped) -> None:
-        stamp = self._now() if self._use_receive_time else stamp_to_seconds(msg.header.stamp)
         # WrenchInput.force_z is the load the wrist carries, + = pulling the gripper down
-        self._wrench = WrenchInput(stamp=stamp, force_z=-float(msg.wrench.force.z))
+        self._wrench = WrenchInput(stamp=self._stamp(msg.header),
+                                   force_z=-float(msg.wrench.force.z))
 
     def _inputs(self) -> ControlInputs:
         return ControlInputs(perception=self._perception, joint=self._joint, wrench=self._wrench)

@@ -379,10 +379,9 @@ class GraspStateMachine:
     def __init__(self, params: ControllerParams | None = None,
                  lift_check: LiftCheckParams | None = None) -> None:
         self._params = (params or ControllerParams()).validated()
-        self._lift_check = lift_check or LiftCheckParams()
-        problems = self._lift_check.problems()
-        if problems:
-            raise ValueError('unusable lift check parameters: ' + '; '.join(problems))
+        ok, reason = self.set_lift_check(lift_check or LiftCheckParams())
+        if not ok:
+            raise ValueError(f'unusable lift check parameters: {reason}')
         self._state = GraspState.IDLE
         self._controller = Controller.FORTE
         self._grasp: _Grasp | None = None
@@ -859,11 +858,11 @@ class GraspStateMachine:
     def _judge_lift(self, now: float) -> None:
         """End of the hold: LIFTED (or RELEASING) if the object is carried, else NOT_CARRIED."""
         grasp = self._grasp
-        assert grasp is not None
+        assert grasp is not None and grasp.lift is not None
         p = grasp.params
-        verdict = grasp.lift.verdict() if grasp.lift is not None else None
-        evidence = f': {verdict.reason}' if verdict is not None else ''
-        if verdict is not None and not verdict.carried:
+        verdict = grasp.lift.verdict()
+        evidence = f': {verdict.reason}'
+        if not verdict.carried:
             self._finish(Outcome.NOT_CARRIED, f'lift of {grasp.lift_height:.4f} m commanded, '
                          f'object not carried: {verdict.reason}')
         elif grasp.goal.release_after:
