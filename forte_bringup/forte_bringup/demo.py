@@ -186,12 +186,13 @@ def run(objects: list[str], controllers: list[str], output: Path, settle: float,
             for controller_index, controller in enumerate(controllers):
                 number = object_index * len(controllers) + controller_index + 1
                 label = f'{object_name} / {controller}'
+                seed = DEMO_SEEDS.get(object_name, 0)
                 say(f'{number}/{total} {label}: starting sim_node, perception_node, '
                     'grasp_controller_node')
                 bringup = Bringup('sim', {'object': object_name, 'force_model': str(model)},
                                   extra_parameters={'sim': {
                                       'real_time_factor': real_time_factor,
-                                      'seed': DEMO_SEEDS.get(object_name, 0)}},
+                                      'seed': seed}},
                                   log_dir=output / 'logs' / f'{object_name}_{controller}',
                                   echo=None)
                 try:
@@ -204,7 +205,7 @@ def run(objects: list[str], controllers: list[str], output: Path, settle: float,
                     truth = client.truth
                     result.update(
                         object=object_name, controller=controller,
-                        seed=DEMO_SEEDS.get(object_name, 0),
+                        seed=seed,
                         object_state=OBJECT_STATES.get(truth.object_state, '?')
                         if truth else '?',
                         object_height=truth.object_height if truth else float('nan'),

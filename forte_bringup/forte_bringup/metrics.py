@@ -389,19 +389,29 @@ OUTCOME_ORDER = ('LIFTED', 'NOT_CARRIED', 'DROPPED', 'NO_CONTACT', 'CLOSED_ON_OB
 TRUTH_ORDER = ('HELD', 'RESTING', 'DROPPED', 'BROKEN', 'CRUSHED')
 
 
-def contradicts_carried(outcome: str, truth: str) -> bool:
-    """True when the outcome and the truth disagree on whether the object was carried.
+def carrying_agreement(outcome: str, truth: str) -> bool | None:
+    """Do the outcome and the truth agree on whether the object was carried?
 
-    LIFTED claims the object is carried: wrong if it is on the table (RESTING) or fell
-    (DROPPED). DROPPED and NOT_CARRIED claim it is not: wrong if it is HELD. A BROKEN or
-    CRUSHED object may or may not hang in the grasp (the truth does not say), so no claim
-    about carrying is checked against those states.
+    LIFTED claims the object is carried, DROPPED and NOT_CARRIED that it is not; the truth
+    says it is (HELD) or is not (RESTING, DROPPED). A BROKEN or CRUSHED object may or may not
+    hang in the grasp (the truth does not say), and other outcomes make no claim.
+
+    Returns
+    -------
+    bool or None
+        True or False when both sides say something about carrying; None otherwise.
     """
-    if outcome == 'LIFTED':
-        return truth in ('RESTING', 'DROPPED')
-    if outcome in ('DROPPED', 'NOT_CARRIED'):
-        return truth == 'HELD'
-    return False
+    claims = {'LIFTED': True, 'DROPPED': False, 'NOT_CARRIED': False}.get(outcome)
+    carried = {'HELD': True, 'RESTING': False, 'DROPPED': False}.get(truth)
+    if claims is None or carried is None:
+        return None
+    return claims == carried
+
+
+def contradicts_carried(outcome: str, truth: str) -> bool:
+    """True when the outcome and the truth disagree on whether the object was carried
+    (LIFTED against RESTING or DROPPED; DROPPED or NOT_CARRIED against HELD)."""
+    return carrying_agreement(outcome, truth) is False
 
 
 def confusion(records: Iterable[TrialRecord], controller: str,

@@ -215,11 +215,11 @@ def outcome_table(rows: Sequence[dict]) -> str:
     """Markdown table of grasp outcomes (one row per grasp).
 
     The column "agrees" says whether the controller's outcome and the ground truth agree on
-    whether the object was carried (:func:`forte_bringup.metrics.contradicts_carried`, as the
+    whether the object was carried (:func:`forte_bringup.metrics.carrying_agreement`, as the
     evaluation judges it): ``yes``, ``NO``, or ``-`` where the outcome makes no claim about
     carrying or the truth cannot judge it (BROKEN, CRUSHED).
     """
-    from forte_bringup.metrics import contradicts_carried
+    from forte_bringup.metrics import carrying_agreement
 
     header = ['object', 'controller', 'outcome', 'object (truth)', 'object height [mm]',
               'agrees', 'lift [mm]', 'final force [N]', 'max true force [N]', 'slip events',
@@ -229,9 +229,7 @@ def outcome_table(rows: Sequence[dict]) -> str:
         outcome = row.get('outcome', '')
         height = row.get('object_height', math.nan)
         state = row.get('object_state', '')
-        claims = outcome in ('LIFTED', 'NOT_CARRIED', 'DROPPED') \
-            and state in ('HELD', 'RESTING', 'DROPPED')
-        agrees = ('NO' if contradicts_carried(outcome, state) else 'yes') if claims else '-'
+        agrees = {True: 'yes', False: 'NO', None: '-'}[carrying_agreement(outcome, state)]
         cells = [row.get('object', ''), row.get('controller', ''), outcome, state,
                  f'{1000 * height:.1f}', agrees,
                  f"{1000 * row.get('lift_height', math.nan):.1f}",

@@ -134,12 +134,11 @@ def test_force_table_shows_ours_and_paper():
     assert 'n/a' in table  # the missing without-history entry
 
 
-def outcome_record(outcome, truth, controller='FORTE', at_outcome='', height=0.03):
-    """A record of one outcome against one truth (height: the object's at the end [m])."""
+def outcome_record(outcome, truth, controller='FORTE', at_outcome=''):
     return TrialRecord(object_name='soda_can', category='slippery', controller=controller,
                        trial=0, success=outcome == 'LIFTED' and truth == 'HELD',
                        outcome=outcome, object_state=truth,
-                       object_state_at_outcome=at_outcome, final_height=height)
+                       object_state_at_outcome=at_outcome)
 
 
 @pytest.mark.parametrize('outcome, truth, wrong', [
