@@ -20,6 +20,12 @@ cancel callback or :meth:`GraspControllerNode.prepare_shutdown`); feedback goes 
 ``feedback_rate`` timer. A GripperCommand goal awaits a future the control timer completes
 when the joint reaches the position, stalls or times out.
 
+Idle costs nothing per input message: the controller subscribes to ``tactile/state``,
+``joint_states`` and ``arm/wrench`` and runs its control and feedback timers only while a
+goal or a fault reset needs them. A goal first waits (at most ``input_wait``) for the inputs
+it needs, then the machine judges their freshness as before; idle, ``grasp/state`` is
+republished once a second with the diagnostics.
+
 Slip reaction: a TactileState carrying ``slip`` during LIFTING / HOLDING steps the machine
 inside the subscription callback and publishes the tightening command from there, without
 waiting for the control timer.
@@ -41,6 +47,7 @@ from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
+from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -144,6 +151,11 @@ class GraspControllerNode(Node):
         self._stopping = False
         self._grasp: _RunningGrasp | None = None
         self._gripper_move: _GripperMove | None = None
+        self._goal_pending = False   # a Grasp goal accepted, its execute not ended
+        self._resetting = False      # a fault reset waiting for its inputs
+        self._input_subscriptions: list = []
+        self._data_time = -math.inf  # newest input stamp since listening [s]
+        self._input_waiters: list[tuple[bool, Future]] = []
         self.counters = {'joint_states_without_joints': 0, 'tactile_invalid': 0,
                          'slip_reactions': 0}
         #: receive -> publish latency of slip tightenings [s] (perf_counter), newest last
@@ -169,15 +181,16 @@ class GraspControllerNode(Node):
         self._state_pub = self.create_publisher(GraspStateMsg, 'grasp/state', latched)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics',
                                                       reliable10)
-        self.create_subscription(TactileState, 'tactile/state', self._on_tactile, reliable50)
-        self.create_subscription(JointState, 'joint_states', self._on_joint_state, reliable10)
-        self.create_subscription(WrenchStamped, 'arm/wrench', self._on_wrench,
-                                 qos_profile_sensor_data)
-        self.create_service(ResetFault, 'grasp/reset_fault', self._on_reset_fault)
+        # a group of its own: the coroutine holds its group while it awaits the inputs,
+        # which arrive through the default group (one thread runs both)
+        self.create_service(ResetFault, 'grasp/reset_fault', self._on_reset_fault,
+                            callback_group=ReentrantCallbackGroup())
         control_period = 1.0 / float(self.get_parameter('control_rate').value)
         feedback_period = 1.0 / float(self.get_parameter('feedback_rate').value)
         self._timer = self.create_timer(control_period, self._on_timer)
         self._feedback_timer = self.create_timer(feedback_period, self._on_feedback_timer)
+        self._timer.cancel()           # both run only while inputs are subscribed
+        self._feedback_timer.cancel()
         self._diagnostics_timer = self.create_timer(1.0, self._publish_diagnostics)
         # wakes the executor when prepare_shutdown (outside any callback) ends a goal
         self._wake = self.create_guard_condition(lambda: None)
@@ -217,13 +230,82 @@ class GraspControllerNode(Node):
                 self._step_on_perception = bool(parameter.value)
         return SetParametersResult(successful=True)
 
-    # -- inputs --------------------------------------------------------------------------
+    # -- inputs, subscribed only while a goal or a reset needs them -------------------------
+    def _listen(self) -> None:
+        """Subscribe to the inputs and start the control and feedback timers."""
+        if self._input_subscriptions:
+            return
+        reliable10 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                                reliability=ReliabilityPolicy.RELIABLE)
+        reliable50 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50,
+                                reliability=ReliabilityPolicy.RELIABLE)
+        self._input_subscriptions = [
+            self.create_subscription(TactileState, 'tactile/state', self._on_tactile,
+                                     reliable50),
+            self.create_subscription(JointState, 'joint_states', self._on_joint_state,
+                                     reliable10),
+            self.create_subscription(WrenchStamped, 'arm/wrench', self._on_wrench,
+                                     qos_profile_sensor_data)]
+        self._timer.reset()
+        self._feedback_timer.reset()
+
+    def _rest_if_idle(self) -> None:
+        """Unsubscribe the inputs and stop the timers once nothing needs them.
+
+        The latest inputs are forgotten: the next goal waits for new ones.
+        """
+        if self._goal_pending or self._gripper_move is not None or self._resetting \
+                or self._machine.state in ACTIVE_STATES or not self._input_subscriptions:
+            return
+        for subscription in self._input_subscriptions:
+            self.destroy_subscription(subscription)
+        self._input_subscriptions = []
+        self._perception = self._joint = self._wrench = None
+        self._data_time = -math.inf
+        self._slip_pending = False
+        self._timer.cancel()
+        self._feedback_timer.cancel()
+        self._publish_state(force=True)
+
+    def _have_inputs(self, perception: bool) -> bool:
+        return self._joint is not None and (self._perception is not None or not perception)
+
+    async def _wait_for_inputs(self, perception: bool) -> None:
+        """Listen, and wait until a joint state (and a tactile state if ``perception``) has
+        arrived since, or ``input_wait`` has passed on the node's clock."""
+        self._listen()
+        if self._have_inputs(perception):
+            return
+        waiter = Future()
+        entry = (perception, waiter)
+        self._input_waiters.append(entry)
+        timer = self.create_timer(float(self.get_parameter('input_wait').value),
+                                  lambda: waiter.done() or waiter.set_result(False))
+        try:
+            await waiter
+        finally:
+            self.destroy_timer(timer)
+            self._input_waiters.remove(entry)
+
+    def _wake_input_waiters(self) -> None:
+        for perception, waiter in self._input_waiters:
+            if not waiter.done() and self._have_inputs(perception):
+                waiter.set_result(True)
+
     def _now(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
+        """The machine's time [s]: the node's clock, or the newest input stamp when that is
+        later (the data's own time: in simulation /clock comes at ``clock_rate``, the samples
+        every batch, and a loaded machine delays both alike)."""
+        return max(self.get_clock().now().nanoseconds * 1e-9, self._data_time)
 
     def _stamp(self, header: Any) -> float:
         """A message's time [s]: its header stamp, or the receive time (use_receive_time)."""
-        return self._now() if self._use_receive_time else stamp_to_seconds(header.stamp)
+        if self._use_receive_time:
+            return self._now()
+        stamp = stamp_to_seconds(header.stamp)
+        if stamp > self._data_time:  # NaN (no stamp) compares false
+            self._data_time = stamp
+        return stamp
 
     def _on_tactile(self, msg: TactileState) -> None:
         received = time.perf_counter()
@@ -243,6 +325,8 @@ class GraspControllerNode(Node):
             if outputs.slip_reacted:
                 self.slip_reaction_latency.append(time.perf_counter() - received)
                 self.counters['slip_reactions'] += 1
+        if self._input_waiters:
+            self._wake_input_waiters()
 
     def _on_joint_state(self, msg: JointState) -> None:
         indices = [i for i, name in enumerate(msg.name)
@@ -255,6 +339,8 @@ class GraspControllerNode(Node):
             stamp=self._stamp(msg.header),
             theta=float(sum(msg.position[i] for i in indices) / len(indices)),
             effort=float(sum(efforts) / len(efforts)) if len(efforts) == len(indices) else None)
+        if self._input_waiters:
+            self._wake_input_waiters()
 
     def _on_wrench(self, msg: WrenchStamped) -> None:
         # WrenchInput.force_z is the load the wrist carries, + = pulling the gripper down
@@ -362,6 +448,8 @@ class GraspControllerNode(Node):
 
     # -- diagnostics -----------------------------------------------------------------------
     def _publish_diagnostics(self) -> None:
+        if not self._input_subscriptions:
+            self._publish_state(force=True)  # idle: the once-a-second grasp/state
         now = self._now()
         state = self._machine.state
         status = DiagnosticStatus()
@@ -384,6 +472,7 @@ class GraspControllerNode(Node):
         values = {
             'state': state.name, 'fault_flags': str(int(self._machine.fault_flags)),
             'last_outcome': self._machine.last_outcome.name,
+            'inputs': 'subscribed' if self._input_subscriptions else 'idle: not subscribed',
             **{k: f'{v:.4f}' for k, v in ages.items()},
             **{k: str(v) for k, v in self.counters.items()},
             'slip_reaction_latency_p50_ms': f'{latencies[len(latencies) // 2] * 1e3:.3f}'
@@ -398,15 +487,28 @@ class GraspControllerNode(Node):
         self._diagnostics_pub.publish(array)
 
     # -- reset service -------------------------------------------------------------------
-    def _on_reset_fault(self, request: ResetFault.Request,
-                        response: ResetFault.Response) -> ResetFault.Response:
-        ok, message, cleared = self._machine.reset_fault(self._now())
+    async def _on_reset_fault(self, request: ResetFault.Request,
+                              response: ResetFault.Response) -> ResetFault.Response:
+        """Clear the latched fault once the conditions that caused it are gone (judged on
+        inputs received after the request, waited for at most ``input_wait``)."""
+        self._resetting = True
+        try:
+            await self._wait_for_inputs(perception=True)
+            self._reset_fault(response)
+        finally:
+            self._resetting = False
+            self._rest_if_idle()
+        return response
+
+    def _reset_fault(self, response: ResetFault.Response) -> None:
+        now = self._now()
+        self._machine.step(self._inputs(), now)  # the machine judges the inputs just received
+        ok, message, cleared = self._machine.reset_fault(now)
         response.success = bool(ok)
         response.message = message
         response.cleared_flags = int(cleared)
         self._last_outputs = self._machine.step(self._inputs(), self._now())
         self._publish_state(force=True)
-        return response
 
     # -- Grasp action --------------------------------------------------------------------
     @staticmethod
@@ -422,7 +524,7 @@ class GraspControllerNode(Node):
     def _on_goal(self, request: Grasp.Goal) -> GoalResponse:
         if self._stopping:
             return GoalResponse.REJECT
-        if self._grasp is not None or self._machine.state in ACTIVE_STATES:
+        if self._goal_pending or self._machine.state in ACTIVE_STATES:
             self.get_logger().warning('goal rejected: a grasp is in progress')
             return GoalResponse.REJECT
         if self._machine.state == GraspState.FAULT:
@@ -432,6 +534,7 @@ class GraspControllerNode(Node):
         if params is None:
             self.get_logger().warning(f'goal rejected: {reason}')
             return GoalResponse.REJECT
+        self._goal_pending = True  # until _execute ends: no second goal while this one waits
         return GoalResponse.ACCEPT
 
     def _on_cancel(self, goal_handle: ServerGoalHandle) -> CancelResponse:
@@ -461,11 +564,23 @@ class GraspControllerNode(Node):
                 self._grasp.done.set_result(self._last_outputs)
         if self._gripper_move is not None and not self._gripper_move.done.done():
             self._gripper_move.done.set_result(None)
+        for _, waiter in self._input_waiters:
+            if not waiter.done():
+                waiter.set_result(False)
         self._wake.trigger()
 
     async def _execute(self, goal_handle: ServerGoalHandle) -> Grasp.Result:
-        """Run one Grasp goal: start the machine, await its outcome, end the goal."""
-        goal = self.goal_from_msg(goal_handle.request)
+        """Run one Grasp goal: wait for the inputs, start the machine, await its outcome."""
+        self._goal_pending = True
+        try:
+            goal = self.goal_from_msg(goal_handle.request)
+            await self._wait_for_inputs(perception=goal.controller != Controller.ON_OFF)
+            return await self._run_grasp(goal_handle, goal)
+        finally:
+            self._goal_pending = False
+            self._rest_if_idle()
+
+    async def _run_grasp(self, goal_handle: ServerGoalHandle, goal: GraspGoal) -> Grasp.Result:
         if goal_handle.is_cancel_requested or self._stopping:
             if goal_handle.is_cancel_requested:
                 goal_handle.canceled()
@@ -530,6 +645,19 @@ class GraspControllerNode(Node):
         ``release_timeout`` (checked by the control timer; ``stalled`` when the joint no
         longer moved between two checks).
         """
+        move = _GripperMove(math.nan, 0.0, math.inf, Future())  # holds the place while waiting
+        self._gripper_move = move
+        try:
+            await self._wait_for_inputs(perception=False)
+            return await self._move_gripper(goal_handle)
+        finally:
+            self._gripper_move = None
+            self._rest_if_idle()
+
+    async def _move_gripper(self, goal_handle: ServerGoalHandle) -> Any:
+        if self._stopping:
+            goal_handle.abort()
+            return GripperCommand.Result()
         params = self._machine.params
         position = float(goal_handle.request.command.position)
         effort = float(goal_handle.request.command.max_effort)
@@ -546,10 +674,7 @@ class GraspControllerNode(Node):
                             self._now() + params.release_timeout, Future())
         self._gripper_move = move
         self._check_gripper_move(move)
-        try:
-            await move.done
-        finally:
-            self._gripper_move = None
+        await move.done
         result = GripperCommand.Result()
         result.position = float(move.last) if math.isfinite(move.last) else position
         result.reached_goal = bool(math.isfinite(move.last)

@@ -188,6 +188,9 @@ NODE_PARAMETERS: dict[str, ParameterSpec] = {spec.name: spec for spec in (
           1.0, 200.0, default=20.0, read_only=True),
     _spec('feedback_rate', float, 'Hz', 'rate of action feedback and grasp/state messages',
           0.1, 100.0, default=10.0, read_only=True),
+    _spec('input_wait', float, 's', 'longest wait for fresh inputs when a goal or a fault reset '
+          'arrives (the controller subscribes to its inputs only while one needs them)',
+          0.05, 30.0, default=1.0),
     _spec('step_on_perception', bool, '', 'also step the state machine on every tactile/state '
           'message (slip messages are always handled at once)', default=True),
     _spec('arm_frame_id', str, '', "frame_id of arm/cmd_vel (the arm's base frame)",

@@ -89,6 +89,8 @@ class FakeWorld(Node):
         self.states: list[GraspStateMsg] = []
         self.sample_index = 0
         self.stamp_offset = 0.0        # shift of the header stamps [s] (recorded data)
+        self.clock_every = 1           # ticks per /clock message (the sim's clock_rate)
+        self.ticks = 0
         self.clock_pub = self.create_publisher(Clock, '/clock', RELIABLE10)
         self.tactile_pub = self.create_publisher(TactileState, 'tactile/state', RELIABLE50)
         self.joint_pub = self.create_publisher(JointState, 'joint_states', RELIABLE10)
@@ -113,7 +115,9 @@ class FakeWorld(Node):
 
     def tick(self) -> None:
         self.sim_time += TICK
-        self.clock_pub.publish(Clock(clock=to_time(self.sim_time)))
+        self.ticks += 1
+        if self.ticks % self.clock_every == 0:
+            self.clock_pub.publish(Clock(clock=to_time(self.sim_time)))
         if self.command is not None:
             step = max(-self.servo_speed * TICK, min(self.servo_speed * TICK,
                                                      self.command - self.theta))
@@ -354,6 +358,41 @@ def test_stale_perception_faults_latches_and_reset_service(harness):
     assert harness.result(handle).result.outcome == Outcome.LIFTED
 
 
+def test_idle_controller_listens_to_no_input(harness):
+    """Idle, the controller has no subscription on its 100 Hz inputs (it costs nothing per
+    message); a goal subscribes them, and they are dropped again once it has ended."""
+    world = harness.world
+    inputs = ('tactile/state', 'joint_states', 'arm/wrench')
+
+    def subscribers() -> list[int]:
+        return [world.count_subscribers(topic) for topic in inputs]
+
+    assert harness.spin_until(lambda: subscribers() == [0, 0, 0], 2.0), subscribers()
+    handle = harness.send()
+    assert handle.accepted
+    assert harness.spin_until(lambda: subscribers() == [1, 1, 1], 2.0), subscribers()
+    assert harness.result(handle).result.outcome == Outcome.LIFTED
+    assert harness.spin_until(lambda: subscribers() == [0, 0, 0], 2.0), subscribers()
+    assert harness.world.states[-1].state == GraspState.DONE
+
+
+def test_coarse_clock_the_data_time_keeps_freshness_exact(harness):
+    """/clock at 10 Hz (the sim's clock_rate), data every 10 ms: the machine's time is the
+    newest input stamp, so the grasp runs as on a fine clock, and stale perception is
+    still caught within its 0.1 s bound plus one tick."""
+    harness.world.clock_every = 10
+    harness.controller.set_parameters([Parameter('lift_distance', value=0.02)])
+    handle = harness.lifting()
+    harness.spin_for(0.2)
+    assert harness.world.state == GraspState.LIFTING
+    stopped = harness.now
+    harness.world.publish_perception = False
+    assert harness.spin_until(lambda: harness.world.state == GraspState.FAULT, 1.0)
+    assert harness.now - stopped <= 0.1 + 0.1 + 2 * TICK, harness.now - stopped
+    result = harness.result(handle).result
+    assert result.outcome == Outcome.FAULT and 'STALE_PERCEPTION' in result.message
+
+
 def test_no_joint_states_refuses_goal_before_motion(harness):
     harness.world.publish_joints = False
     harness.spin_for(0.4)  # twice the default joint_state_timeout (0.2 s)
@@ -492,9 +531,13 @@ def test_diagnostics_report_state_and_fault(harness):
     status = received[-1].status[0]
     assert 'grasp_controller' in status.name and status.level == DiagnosticStatus.OK
     values = {item.key: item.value for item in status.values}
-    assert values['state'] == 'IDLE' and float(values['perception_age_s']) < 0.1
+    assert values['state'] == 'IDLE' and values['inputs'] == 'idle: not subscribed'
     harness.controller.set_parameters([Parameter('lift_distance', value=0.02)])
     harness.lifting()
+    received.clear()
+    assert harness.spin_until(lambda: received, 3.0)
+    values = {item.key: item.value for item in received[-1].status[0].values}
+    assert values['inputs'] == 'subscribed' and float(values['perception_age_s']) < 0.1
     harness.world.publish_joints = False
     assert harness.spin_until(lambda: harness.world.state == GraspState.FAULT, 2.0)
     received.clear()

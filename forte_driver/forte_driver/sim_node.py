@@ -132,6 +132,11 @@ class SimNode(ForteLifecycleNode):
             floats=[FloatingPointRange(from_value=0.0, to_value=1000.0, step=0.0)]))
         self.declare_parameter('publish_clock', False, describe(
             'publish /clock (rosgraph_msgs/Clock) with the simulation time'))
+        self.declare_parameter('clock_rate', 20.0, describe(
+            '/clock messages per simulated second (at most one per batch): every /clock '
+            'message wakes every node on the simulation clock, so it is kept low; nodes that '
+            'need finer time read the sample stamps [Hz]',
+            floats=[FloatingPointRange(from_value=1.0, to_value=2000.0, step=0.0)]))
         self.declare_parameter('reliable', False, describe(
             'reliable QoS on tactile/frames (for recording); default sensor data QoS'))
         self.declare_parameter('batch_size', 20, describe(
@@ -363,10 +368,19 @@ class SimNode(ForteLifecycleNode):
         ground.object_rotation = latest['object_rotation']
         self._truth_publisher.publish(ground)
         if self._clock_publisher is not None:
-            clock = Clock()
-            clock.clock = Time(nanoseconds=self._origin_ns
-                               + round(scene.sample_index * SAMPLE_PERIOD * 1e9)).to_msg()
-            self._clock_publisher.publish(clock)
+            self._publish_clock(first, scene.sample_index)
+
+    def _publish_clock(self, first: int, end: int) -> None:
+        """Publish /clock = the end of the batch [first, end) when a tick of ``clock_rate``
+        falls in it (a batch longer than a tick publishes once)."""
+        tick = max(1, round(1.0 / (float(self.get_parameter('clock_rate').value)
+                                   * SAMPLE_PERIOD)))  # samples per /clock message
+        if first != 0 and first // tick == end // tick:
+            return
+        clock = Clock()
+        clock.clock = Time(nanoseconds=self._origin_ns
+                           + round(end * SAMPLE_PERIOD * 1e9)).to_msg()
+        self._clock_publisher.publish(clock)
 
     # ------------------------------------------------------------------ diagnostics
     def _publish_diagnostics(self) -> None:

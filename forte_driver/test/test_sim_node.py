@@ -179,6 +179,26 @@ def test_as_fast_as_possible_with_clock(harness_factory):
     assert len(sequences) > 10
 
 
+@pytest.mark.parametrize('clock_rate', [20.0, 100.0])
+def test_clock_comes_at_its_rate_and_never_ahead_of_the_data(harness_factory, clock_rate):
+    harness = harness_factory(scene='calibration', object='sphere', seed=3, clock_rate=clock_rate,
+                              real_time_factor=0.0, publish_clock=True, reliable=True)
+    assert harness.wait(lambda: len(harness.frames) >= 200)  # 2 simulated seconds
+    frames = list(harness.frames)
+    clocks = np.array([c.clock.sec + 1e-9 * c.clock.nanosec for c in list(harness.clock)])
+    first = frames[0][1].header.stamp.sec + 1e-9 * frames[0][1].header.stamp.nanosec
+    last = frames[-1][1].header.stamp.sec + 1e-9 * frames[-1][1].header.stamp.nanosec
+    inside = clocks[(clocks > first + 0.1) & (clocks < last - 0.1)]
+    expected = (last - first - 0.2) * clock_rate
+    # 1 / clock_rate apart, on batch boundaries (10 ms): the count within one message
+    assert abs(len(inside) - expected) <= 1.0, (len(inside), expected)
+    np.testing.assert_allclose(np.diff(inside), 1.0 / clock_rate, atol=1e-6)
+    # each /clock is the end of a batch already published: the time of data that exists
+    ends = {round((m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec + 0.01) * 1e6)
+            for _, m in frames}
+    assert all(round(c * 1e6) in ends for c in inside)
+
+
 def test_bad_parameters_and_commands_are_refused(harness_factory):
     harness = harness_factory(scene='grasp', object='apple', seed=4)
     result = harness.node.set_parameters([Parameter('real_time_factor', value=-1.0)])[0]
