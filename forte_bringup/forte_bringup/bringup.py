@@ -52,6 +52,7 @@ from forte_bringup.ros_isolation import isolate_ros_network
 TRANSITION_CONFIGURE = 1
 TRANSITION_ACTIVATE = 3
 TRANSITION_DEACTIVATE = 4
+TRANSITION_CLEANUP = 2
 
 
 class BringupError(RuntimeError):
@@ -364,7 +365,8 @@ class Bringup:
         request = ChangeState.Request()
         request.transition.id = transition
         response = self._call(ChangeState, f'/{node}/change_state', request, timeout)
-        label = {1: 'configure', 3: 'activate', 4: 'deactivate'}.get(transition, transition)
+        label = {1: 'configure', 2: 'cleanup', 3: 'activate',
+                 4: 'deactivate'}.get(transition, transition)
         if not response.success:
             raise BringupError(f'{node}: lifecycle transition {label} refused '
                                f'(see {self.log_dir / (node + ".log")})')
@@ -404,6 +406,36 @@ class Bringup:
                     self.echo.write(f'[forte_bringup] {error}; retrying in '
                                     f'{TRANSITION_RETRY_DELAY:g} s\n')
                 self._spin(TRANSITION_RETRY_DELAY)
+
+    def set_parameters(self, node: str, values: dict[str, Any], timeout: float = 10.0) -> None:
+        """Set parameters of ``node`` through its ``set_parameters`` service.
+
+        Raises
+        ------
+        BringupError
+            If the service is missing or the node refuses a value.
+        """
+        from rcl_interfaces.srv import SetParameters
+        from rclpy.parameter import Parameter
+
+        request = SetParameters.Request(parameters=[
+            Parameter(name, value=value).to_parameter_msg() for name, value in values.items()])
+        response = self._call(SetParameters, f'/{node}/set_parameters', request, timeout)
+        refused = [f'{name}: {result.reason}' for name, result
+                   in zip(values, response.results, strict=True) if not result.successful]
+        if refused:
+            raise BringupError(f'{node} refused parameters: {"; ".join(refused)}')
+
+    def new_scene(self, node: str = 'sim', timeout: float = 10.0, **values: Any) -> None:
+        """A fresh scene on the simulator: deactivate, clean up, set ``values`` (e.g.
+        ``object``, ``seed``), configure and activate again."""
+        if self.get_state(node, timeout) == 'active':
+            self.change_state(node, TRANSITION_DEACTIVATE, timeout)
+        if self.get_state(node, timeout) == 'inactive':
+            self.change_state(node, TRANSITION_CLEANUP, timeout)
+        if values:
+            self.set_parameters(node, values, timeout)
+        self.activate(node, timeout)
 
     def stop(self, timeout: float = 10.0) -> dict[str, int]:
         """Deactivate lifecycle nodes, then stop every child; returns exit codes by name."""

@@ -14,8 +14,11 @@ reads the bag back and writes a report to ``out/demo/``:
 - ``bag/``: the rosbag2 MCAP recording (``ros2 bag info out/demo/bag`` on a ROS install);
 - ``logs/``: each node's output.
 
-Every grasp gets a freshly started graph (a new scene with the object on the table and a
-freshly tared sensor), so grasps never influence each other; the recorder runs throughout.
+The graph is started once, at real time by default. Every grasp gets a fresh scene: the
+simulator is cleaned up and configured again with the object on the table (lifecycle
+transitions, ``Bringup.new_scene``), perception is restarted (``perception/reset``) and tares
+itself on the quiet start, and the controller, idle between goals, waits for the new data;
+so grasps never influence each other. The recorder runs throughout.
 """
 from __future__ import annotations
 
@@ -59,9 +62,10 @@ class DemoClient:
     def __init__(self, bag: Path) -> None:
         import rclpy
         from rclpy.action import ActionClient
-        from rclpy.executors import MultiThreadedExecutor
+        from rclpy.executors import SingleThreadedExecutor
         from rclpy.qos import QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
+        from std_srvs.srv import Trigger
 
         from forte_bringup.record import BagRecorder
         from forte_msgs.action import Grasp
@@ -71,6 +75,8 @@ class DemoClient:
         self.recorder = BagRecorder(bag, node_name='forte_demo_recorder')
         self.node = rclpy.create_node('forte_demo')
         self.client = ActionClient(self.node, Grasp, 'grasp')
+        self.reset_client = self.node.create_client(Trigger, 'perception/reset')
+        self._goals_sent = 0
         self.truth = None
         self.max_true_force = 0.0
         self.tared_states = 0
@@ -81,7 +87,7 @@ class DemoClient:
         self.node.create_subscription(TactileState, 'tactile/state', self._on_state, reliable)
         self.node.create_subscription(JointState, 'joint_states', self._on_joint_state,
                                       reliable)
-        self.executor = MultiThreadedExecutor(num_threads=2)
+        self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.recorder.node)
         self.executor.add_node(self.node)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
@@ -93,6 +99,19 @@ class DemoClient:
 
     def _on_joint_state(self, _message) -> None:
         self.joint_states += 1
+
+    def reset_perception(self, timeout: float = 30.0) -> None:
+        """Restart the perception pipeline (it tares again on the quiet start)."""
+        from std_srvs.srv import Trigger
+
+        if not self.reset_client.wait_for_service(timeout_sec=timeout):
+            raise RuntimeError('perception/reset not available')
+        future = self.reset_client.call_async(Trigger.Request())
+        deadline = time.monotonic() + timeout
+        while not future.done():
+            if time.monotonic() > deadline:
+                raise RuntimeError('perception/reset did not answer')
+            time.sleep(0.02)
 
     def wait_ready(self, timeout: float = 30.0) -> None:
         """Wait until perception publishes tared, valid states and joint states flow."""
@@ -124,9 +143,12 @@ class DemoClient:
 
         if not self.client.wait_for_server(timeout_sec=30.0):
             raise RuntimeError('grasp action server not available')
-        # the client sees the server; give the server time to match the client's response
-        # readers too, or a reliable response can go to nobody (the goal runs unacknowledged)
-        time.sleep(1.0)
+        if not self._goals_sent:
+            # the client sees the server; give the server time to match the client's response
+            # readers too, or a reliable response can go to nobody (the goal runs
+            # unacknowledged)
+            time.sleep(1.0)
+        self._goals_sent += 1
         self.max_true_force = 0.0
         goal = Grasp.Goal(controller=getattr(Grasp.Goal, controller), timeout=timeout)
         sent = self.client.send_goal_async(goal)
@@ -181,22 +203,21 @@ def run(objects: list[str], controllers: list[str], output: Path, settle: float,
     client = DemoClient(bag)
     rows, windows = [], []
     total = len(objects) * len(controllers)
+    say('starting sim_node, perception_node, grasp_controller_node at real-time factor '
+        f'{real_time_factor:g}')
+    bringup = Bringup('sim', {'object': objects[0], 'force_model': str(model)},
+                      extra_parameters={'sim': {'real_time_factor': real_time_factor}},
+                      log_dir=output / 'logs', echo=None)
     try:
+        bringup.start(timeout=60.0)
         for object_index, object_name in enumerate(objects):
             for controller_index, controller in enumerate(controllers):
                 number = object_index * len(controllers) + controller_index + 1
                 label = f'{object_name} / {controller}'
                 seed = DEMO_SEEDS.get(object_name, 0)
-                say(f'{number}/{total} {label}: starting sim_node, perception_node, '
-                    'grasp_controller_node')
-                bringup = Bringup('sim', {'object': object_name, 'force_model': str(model)},
-                                  extra_parameters={'sim': {
-                                      'real_time_factor': real_time_factor,
-                                      'seed': seed}},
-                                  log_dir=output / 'logs' / f'{object_name}_{controller}',
-                                  echo=None)
                 try:
-                    bringup.start(timeout=60.0)
+                    bringup.new_scene(object=object_name, seed=seed)
+                    client.reset_perception()
                     client.wait_ready()  # perception tared on the quiet start, joints known
                     first = time.time_ns()
                     say(f'{number}/{total} {label}: grasping')
@@ -221,9 +242,11 @@ def run(objects: list[str], controllers: list[str], output: Path, settle: float,
                     say(f'{number}/{total} {label}: FAILED: {error}')
                     rows.append({'object': object_name, 'controller': controller,
                                  'outcome': f'demo error: {error}'})
-                finally:
-                    bringup.stop()
+    except BringupError as error:
+        say(f'the graph did not start: {error}')
+        rows.append({'object': '-', 'controller': '-', 'outcome': f'demo error: {error}'})
     finally:
+        bringup.stop()
         client.close()
     say(f'bag closed: {bag}; reading it back for the report')
     traces = traces_from_bag(bag, windows)
@@ -270,9 +293,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--settle', type=float, default=1.5,
                         help='recording time after each result [s]')
     parser.add_argument('--timeout', type=float, default=60.0, help='grasp timeout [s]')
-    parser.add_argument('--real-time-factor', type=float, default=0.5,
-                        help='simulated seconds per wall second (the graph runs on /clock); '
-                             '0.5 leaves perception headroom on a busy 2-core machine')
+    parser.add_argument('--real-time-factor', type=float, default=1.0,
+                        help='simulated seconds per wall second (the graph runs on /clock)')
     args = parser.parse_args(argv)
 
     from forte_bringup.ros_isolation import isolate_ros_network

@@ -42,6 +42,7 @@ from collections import deque
 from dataclasses import dataclass, replace
 from typing import Any
 
+from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
@@ -62,6 +63,7 @@ from rclpy.qos import (
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
 
+from forte_control.gripper_command import GripperCommand, GripperCommandMixin
 from forte_control.node_parameters import (
     CONTROLLER_FIELDS,
     declare_parameters,
@@ -88,10 +90,13 @@ from forte_msgs.msg import ServoCommand, TactileState
 from forte_msgs.srv import ResetFault
 from forte_ros import run_node
 
-try:  # standard gripper action for MoveIt, only where control_msgs is installed
-    from control_msgs.action import GripperCommand
-except ImportError:  # pragma: no cover - depends on the installation
-    GripperCommand = None
+RELIABLE10 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                        reliability=ReliabilityPolicy.RELIABLE)
+RELIABLE50 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50,
+                        reliability=ReliabilityPolicy.RELIABLE)
+LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                     reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 __all__ = ['CONTROLLER_FIELDS', 'GraspControllerNode', 'main', 'stamp_to_seconds']
 
@@ -112,19 +117,7 @@ class _RunningGrasp:
     started: float             # time.monotonic() at the start [s]
 
 
-@dataclass
-class _GripperMove:
-    """A GripperCommand goal in progress (checked by the control timer)."""
-
-    position: float            # target [rad]
-    tolerance: float           # [rad]
-    deadline: float            # node clock [s]
-    done: Future               # result: None
-    last: float = math.nan     # joint angle at the previous check [rad]
-    stalled: bool = False
-
-
-class GraspControllerNode(Node):
+class GraspControllerNode(GripperCommandMixin, Node):
     """The FORTE grasp controller node (see the module docstring).
 
     Parameters
@@ -150,7 +143,7 @@ class GraspControllerNode(Node):
         self._was_active = False
         self._stopping = False
         self._grasp: _RunningGrasp | None = None
-        self._gripper_move: _GripperMove | None = None
+        self._gripper_move = None  # the GripperCommand goal in progress (GripperCommandMixin)
         self._goal_pending = False   # a Grasp goal accepted, its execute not ended
         self._resetting = False      # a fault reset waiting for its inputs
         self._input_subscriptions: list = []
@@ -168,19 +161,13 @@ class GraspControllerNode(Node):
             f'{"available" if GripperCommand is not None else "not installed"})')
 
     def _create_interfaces(self) -> None:
-        """Publishers, subscriptions, timers, the reset service and the action servers."""
-        reliable10 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                                reliability=ReliabilityPolicy.RELIABLE)
-        reliable50 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50,
-                                reliability=ReliabilityPolicy.RELIABLE)
-        latched = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
-                             reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self._servo_pub = self.create_publisher(ServoCommand, 'gripper/command', reliable10)
-        self._arm_pub = self.create_publisher(TwistStamped, 'arm/cmd_vel', reliable10)
-        self._state_pub = self.create_publisher(GraspStateMsg, 'grasp/state', latched)
+        """Publishers, timers, the reset service and the action servers (the subscriptions
+        come with a goal, :meth:`_listen`)."""
+        self._servo_pub = self.create_publisher(ServoCommand, 'gripper/command', RELIABLE10)
+        self._arm_pub = self.create_publisher(TwistStamped, 'arm/cmd_vel', RELIABLE10)
+        self._state_pub = self.create_publisher(GraspStateMsg, 'grasp/state', LATCHED)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics',
-                                                      reliable10)
+                                                      RELIABLE10)
         # a group of its own: the coroutine holds its group while it awaits the inputs,
         # which arrive through the default group (one thread runs both)
         self.create_service(ResetFault, 'grasp/reset_fault', self._on_reset_fault,
@@ -235,15 +222,11 @@ class GraspControllerNode(Node):
         """Subscribe to the inputs and start the control and feedback timers."""
         if self._input_subscriptions:
             return
-        reliable10 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                                reliability=ReliabilityPolicy.RELIABLE)
-        reliable50 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50,
-                                reliability=ReliabilityPolicy.RELIABLE)
         self._input_subscriptions = [
             self.create_subscription(TactileState, 'tactile/state', self._on_tactile,
-                                     reliable50),
+                                     RELIABLE50),
             self.create_subscription(JointState, 'joint_states', self._on_joint_state,
-                                     reliable10),
+                                     RELIABLE10),
             self.create_subscription(WrenchStamped, 'arm/wrench', self._on_wrench,
                                      qos_profile_sensor_data)]
         self._timer.reset()
@@ -297,6 +280,12 @@ class GraspControllerNode(Node):
         later (the data's own time: in simulation /clock comes at ``clock_rate``, the samples
         every batch, and a loaded machine delays both alike)."""
         return max(self.get_clock().now().nanoseconds * 1e-9, self._data_time)
+
+    def _time_msg(self) -> TimeMsg:
+        """The machine's time as a header stamp: outputs carry the time of the data they
+        answer (in simulation, the sample time of the newest input)."""
+        nanoseconds = round(self._now() * 1e9)
+        return TimeMsg(sec=nanoseconds // 10**9, nanosec=nanoseconds % 10**9)
 
     def _stamp(self, header: Any) -> float:
         """A message's time [s]: its header stamp, or the receive time (use_receive_time)."""
@@ -376,7 +365,7 @@ class GraspControllerNode(Node):
         active = outputs.state in ACTIVE_STATES
         if outputs.servo is not None and outputs.servo_changed and not self._dry_run:
             msg = ServoCommand()
-            msg.header.stamp = self.get_clock().now().to_msg()
+            msg.header.stamp = self._time_msg()
             msg.header.frame_id = str(self.get_parameter('gripper_frame_id').value)
             msg.position = outputs.servo.position
             msg.max_current = outputs.servo.max_current
@@ -392,7 +381,7 @@ class GraspControllerNode(Node):
 
     def _publish_arm(self, velocity: float) -> None:
         msg = TwistStamped()
-        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.stamp = self._time_msg()
         msg.header.frame_id = str(self.get_parameter('arm_frame_id').value)
         msg.twist.linear.z = 0.0 if self._dry_run else float(velocity)
         self._arm_pub.publish(msg)
@@ -400,7 +389,7 @@ class GraspControllerNode(Node):
     def _state_msg(self) -> GraspStateMsg:
         out = self._last_outputs
         msg = GraspStateMsg()
-        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.stamp = self._time_msg()
         msg.header.frame_id = str(self.get_parameter('gripper_frame_id').value)
         msg.state = int(self._machine.state)
         msg.fault_flags = int(self._machine.fault_flags)
@@ -482,7 +471,7 @@ class GraspControllerNode(Node):
         }
         status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
         array = DiagnosticArray()
-        array.header.stamp = self.get_clock().now().to_msg()
+        array.header.stamp = self._time_msg()
         array.status = [status]
         self._diagnostics_pub.publish(array)
 
@@ -625,81 +614,6 @@ class GraspControllerNode(Node):
             result.slip_events = int(out.slip_events)
             result.tightening = float(out.tightening)
         return result
-
-    # -- control_msgs/GripperCommand (MoveIt), only where installed ----------------------
-    def _on_gripper_goal(self, request: Any) -> GoalResponse:
-        if self._stopping or self._gripper_move is not None:
-            return GoalResponse.REJECT
-        if self._machine.state in ACTIVE_STATES or self._machine.state == GraspState.FAULT:
-            return GoalResponse.REJECT
-        position = float(request.command.position)
-        if not math.isfinite(position) or not self._machine.params.min_angle <= position \
-                <= math.pi:
-            return GoalResponse.REJECT
-        return GoalResponse.ACCEPT
-
-    async def _execute_gripper(self, goal_handle: ServerGoalHandle) -> Any:
-        """Move the servo to ``command.position`` [rad]; ``max_effort`` [A] caps the current.
-
-        Ends when the joint is within ``release_tolerance`` of the position, or after
-        ``release_timeout`` (checked by the control timer; ``stalled`` when the joint no
-        longer moved between two checks).
-        """
-        move = _GripperMove(math.nan, 0.0, math.inf, Future())  # holds the place while waiting
-        self._gripper_move = move
-        try:
-            await self._wait_for_inputs(perception=False)
-            return await self._move_gripper(goal_handle)
-        finally:
-            self._gripper_move = None
-            self._rest_if_idle()
-
-    async def _move_gripper(self, goal_handle: ServerGoalHandle) -> Any:
-        if self._stopping:
-            goal_handle.abort()
-            return GripperCommand.Result()
-        params = self._machine.params
-        position = float(goal_handle.request.command.position)
-        effort = float(goal_handle.request.command.max_effort)
-        if not self._dry_run:
-            msg = ServoCommand()
-            msg.header.stamp = self.get_clock().now().to_msg()
-            msg.header.frame_id = str(self.get_parameter('gripper_frame_id').value)
-            msg.position = position
-            msg.max_current = min(effort, params.max_current) if effort > 0.0 \
-                else params.max_current
-            msg.profile_velocity = params.release_speed
-            self._servo_pub.publish(msg)
-        move = _GripperMove(position, params.release_tolerance,
-                            self._now() + params.release_timeout, Future())
-        self._gripper_move = move
-        self._check_gripper_move(move)
-        await move.done
-        result = GripperCommand.Result()
-        result.position = float(move.last) if math.isfinite(move.last) else position
-        result.reached_goal = bool(math.isfinite(move.last)
-                                   and abs(move.last - position) <= move.tolerance)
-        result.stalled = bool(move.stalled and not result.reached_goal)
-        if self._stopping:
-            goal_handle.abort()
-        else:
-            goal_handle.succeed()
-        return result
-
-    def _check_gripper_move(self, move: _GripperMove) -> None:
-        """Complete the move's future once reached, or at its deadline (control timer)."""
-        if move.done.done():
-            return
-        joint = self._joint
-        if joint is not None:
-            move.stalled = abs(joint.theta - move.last) < 1e-4
-            move.last = joint.theta
-            if abs(joint.theta - move.position) <= move.tolerance:
-                move.done.set_result(None)
-                return
-        if self._now() >= move.deadline:
-            move.done.set_result(None)
-
 
 def _finite_or_zero(value: float) -> float:
     return float(value) if math.isfinite(value) else 0.0

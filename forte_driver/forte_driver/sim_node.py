@@ -60,6 +60,8 @@ from forte_ros import ForteLifecycleNode, run_node
 
 LEFT_JOINT = 'forte_left_finger_joint'
 RIGHT_JOINT = 'forte_right_finger_joint'
+#: Parameters that define the scene, read at configure (settable while unconfigured).
+SCENE_PARAMETERS = ('scene', 'object', 'seed', 'trial')
 MAX_CATCH_UP = 0.5          # largest simulated lag made up in one timer tick [s]
 FAST_PERIOD = 1e-4          # timer period at real_time_factor 0 (free running) [s]
 RELIABLE_FRAMES_DEPTH = 1000    # reliable frames queue: 10 s of batches for slow readers
@@ -116,16 +118,19 @@ class SimNode(ForteLifecycleNode):
                                        floating_point_range=floats or [],
                                        integer_range=integers or [])
 
+        # the scene's parameters apply at the next configure (cleanup + configure = a new scene)
         self.declare_parameter('scene', 'grasp', describe(
-            f'scene name, one of {", ".join(SCENE_NAMES)}'))
+            f'scene name, one of {", ".join(SCENE_NAMES)} (applies at configure)',
+            read_only=False))
         self.declare_parameter('object', 'apple', describe(
             'object type (grasp scenes, see forte_driver.sim.OBJECTS) or indentor name '
-            '(calibration scene)'))
+            '(calibration scene) (applies at configure)', read_only=False))
         self.declare_parameter('seed', 0, describe(
-            'seed of every random draw of the scene', integers=[
-                IntegerRange(from_value=0, to_value=2 ** 31 - 1, step=1)]))
+            'seed of every random draw of the scene (applies at configure)', read_only=False,
+            integers=[IntegerRange(from_value=0, to_value=2 ** 31 - 1, step=1)]))
         self.declare_parameter('trial', 0, describe(
-            'trial index reported in sim/ground_truth', integers=[
+            'trial index reported in sim/ground_truth (applies at configure)', read_only=False,
+            integers=[
                 IntegerRange(from_value=0, to_value=2 ** 31 - 1, step=1)]))
         self.declare_parameter('real_time_factor', 1.0, describe(
             'simulated seconds per wall second; 0 = as fast as possible', read_only=False,
@@ -156,6 +161,10 @@ class SimNode(ForteLifecycleNode):
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         for parameter in parameters:
+            if parameter.name in SCENE_PARAMETERS and getattr(self, '_scene', None) is not None:
+                return SetParametersResult(
+                    successful=False, reason=f'{parameter.name} applies at configure: '
+                    'deactivate and clean up the node first')
             if parameter.name in ('real_time_factor', 'cmd_vel_timeout'):
                 value = parameter.value
                 if not isinstance(value, float) or not math.isfinite(value):
