@@ -49,8 +49,8 @@ sys.path.insert(0, str(HERE.parent / 'forte_bringup' / 'test'))  # graph_probe: 
 from bench_perception_node import ECHO_NODE, proc_cpu_seconds  # noqa: E402
 
 from forte_bringup.ros_isolation import isolate_ros_network  # noqa: E402
+from forte_ros import call_in_executor  # noqa: E402
 
-TRANSITION_CLEANUP = 2  # lifecycle_msgs/msg/Transition
 OUTCOME_STALE = 'STALE'
 
 
@@ -135,10 +135,12 @@ class Probe:
         assert self.grasp_client.wait_for_server(timeout_sec=30.0), 'no grasp action server'
         goal = self.Grasp.Goal(controller=self.Grasp.Goal.FORTE, lift_distance=0.01,
                                timeout=timeout)
-        handle = self.wait(self.grasp_client.send_goal_async(goal), 30.0)
+        handle = self.wait(call_in_executor(self.executor, self.grasp_client.send_goal_async,
+                                            goal), 30.0)
         if not handle.accepted:
             return 'REJECTED', ''
-        result = self.wait(handle.get_result_async(), timeout + 30.0).result
+        result = self.wait(call_in_executor(self.executor, handle.get_result_async),
+                           timeout + 30.0).result
         names = {v: k for k, v in vars(self.Grasp.Result).items()
                  if k.isupper() and isinstance(v, int)}
         return names.get(result.outcome, str(result.outcome)), result.message
@@ -205,16 +207,6 @@ def print_latency(graph: str, probe: Probe) -> None:
                   f'ms ({len(values)} messages)', flush=True)
 
 
-def reset_scene(bringup, probe: Probe) -> None:
-    """A fresh scene: the object back on the table, the sensor re-tared."""
-    from forte_bringup.bringup import TRANSITION_DEACTIVATE
-
-    bringup.change_state('sim', TRANSITION_DEACTIVATE)
-    bringup.change_state('sim', TRANSITION_CLEANUP)
-    bringup.activate('sim')
-    probe.reset_perception()
-
-
 def run_sim(args: argparse.Namespace, folder: Path, model: Path) -> dict:
     from forte_bringup.bringup import Bringup
 
@@ -243,8 +235,9 @@ def run_sim(args: argparse.Namespace, folder: Path, model: Path) -> dict:
         grasping = 0.0
         shares_sum: dict[str, float] = {}
         for index in range(args.grasps):
-            if index:
-                reset_scene(bringup, probe)
+            if index:  # a fresh scene: the object back on the table, the sensor re-tared
+                bringup.new_scene()
+                probe.reset_perception()
             started = time.monotonic()
             meter.start()
             outcome, message = probe.grasp()

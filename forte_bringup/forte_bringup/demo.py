@@ -140,6 +140,7 @@ class DemoClient:
 
     def _grasp_once(self, controller: str, timeout: float) -> dict:
         from forte_msgs.action import Grasp
+        from forte_ros import call_in_executor
 
         if not self.client.wait_for_server(timeout_sec=30.0):
             raise RuntimeError('grasp action server not available')
@@ -151,7 +152,7 @@ class DemoClient:
         self._goals_sent += 1
         self.max_true_force = 0.0
         goal = Grasp.Goal(controller=getattr(Grasp.Goal, controller), timeout=timeout)
-        sent = self.client.send_goal_async(goal)
+        sent = call_in_executor(self.executor, self.client.send_goal_async, goal)
         deadline = time.monotonic() + 30.0
         while not sent.done():
             if time.monotonic() > deadline:
@@ -160,11 +161,11 @@ class DemoClient:
         handle = sent.result()
         if not handle.accepted:
             raise RuntimeError('goal rejected')
-        result_future = handle.get_result_async()
+        result_future = call_in_executor(self.executor, handle.get_result_async)
         deadline = time.monotonic() + timeout + 30.0
         while not result_future.done():
             if time.monotonic() > deadline:
-                handle.cancel_goal_async()
+                call_in_executor(self.executor, handle.cancel_goal_async)
                 raise RuntimeError('no result within the timeout')
             time.sleep(0.05)
         result = result_future.result().result

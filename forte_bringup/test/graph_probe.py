@@ -33,6 +33,8 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
+from forte_ros import call_in_executor
+
 #: Topics :class:`Watcher` counts (``tared``: tactile states that are tared and valid).
 COUNTED = ('tactile/frames', 'tactile/state', 'joint_states', 'grasp/state', 'tared')
 
@@ -226,12 +228,13 @@ class Watcher(Node):
         try:
             assert client.wait_for_server(timeout_sec=timeout), 'no grasp action server'
             feedback: list = []
-            future = client.send_goal_async(goal, feedback_callback=feedback.append)
+            future = call_in_executor(self.executor, client.send_goal_async, goal,
+                                      feedback.append)
             assert wait_for(future.done, timeout), 'goal not answered'
             handle = future.result()
             if not handle.accepted:
                 return False, None, feedback
-            result_future = handle.get_result_async()
+            result_future = call_in_executor(self.executor, handle.get_result_async)
             if not wait_for(result_future.done, timeout):
                 return True, None, feedback
             return True, result_future.result().result, feedback

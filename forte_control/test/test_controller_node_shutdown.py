@@ -14,6 +14,7 @@ from sensor_msgs.msg import JointState
 
 from forte_msgs.action import Grasp
 from forte_msgs.msg import GraspState
+from forte_ros import call_in_executor
 from forte_ros.testing import NodeProcess, Probe, wait_until
 
 STATUS_ABORTED = 6  # action_msgs/msg/GoalStatus (not a declared dependency of forte_control)
@@ -63,11 +64,12 @@ def test_a_running_grasp_is_ended_before_the_process_exits():
         with NodeProcess([CONTROLLER]) as process:
             assert client.wait_for_server(timeout_sec=40.0), process.output
             goal = Grasp.Goal(controller=Grasp.Goal.ON_OFF, timeout=60.0)
-            sent = client.send_goal_async(goal, feedback_callback=feedback.append)
+            sent = call_in_executor(probe.executor, client.send_goal_async, goal,
+                                    feedback.append)
             assert wait_until(sent.done, 20.0)
             handle = sent.result()
             assert handle.accepted, process.output
-            result = handle.get_result_async()
+            result = call_in_executor(probe.executor, handle.get_result_async)
             assert wait_until(lambda: len(feedback) >= 3, 20.0), process.output
             check_clean_stop(process, signal.SIGINT)
             assert wait_until(result.done, 5.0), 'the goal got no result'

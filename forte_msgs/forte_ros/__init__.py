@@ -12,11 +12,14 @@ depending on each other (they all depend on forte_msgs).
 - :mod:`forte_ros.lifecycle`: :class:`ForteLifecycleNode`, the base of the FORTE managed
   nodes: an invalid ``change_state`` request (e.g. a second ``configure`` from a stale
   launch) is refused with ``success=false`` and a warning, and the node keeps running.
+- :mod:`forte_ros.executor_calls`: :func:`call_in_executor`, for action-client calls from
+  a thread other than the one spinning the client (ros2/rclpy#1123).
 - :mod:`forte_ros.testing`: run a node executable as a child process, stop it with a
   signal, check its output (used by the tests of every package).
 """
+from forte_ros.executor_calls import call_in_executor
 from forte_ros.lifecycle import ForteLifecycleNode, shut_down_lifecycle
 from forte_ros.node_runner import NodeRunner, publish_quietly, run_node
 
-__all__ = ['ForteLifecycleNode', 'NodeRunner', 'publish_quietly', 'run_node',
+__all__ = ['ForteLifecycleNode', 'NodeRunner', 'call_in_executor', 'publish_quietly', 'run_node',
            'shut_down_lifecycle']
