@@ -31,6 +31,7 @@ are clipped to ``force_range`` [N].
 from __future__ import annotations
 
 import json
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -422,10 +423,20 @@ class ForceModel:
 
         Same arithmetic as :meth:`predict` on a single row.
         """
-        x = self.select(features)
-        if not np.isfinite(x).all():
+        x = self.select(features)[0]
+        if not math.isfinite(float(np.add.reduce(x))) and not np.isfinite(x).all():
             return float('nan'), False
-        return float(np.clip(self.decision(x)[0], *self.force_range)), bool(self.valid(x)[0])
+        # decision() on one row, element for element: ||z||^2 + ||sv||^2 - 2 sv.z
+        z = (x - self.scaler_mean) / self.scaler_scale
+        d2 = np.dot(z, z) + self._sv_sq
+        d2 -= 2.0 * (self.support_vectors @ z)
+        np.maximum(d2, 0.0, out=d2)
+        d2 *= -self.gamma
+        np.exp(d2, out=d2)
+        value = float(d2 @ self.dual_coef) + self.intercept
+        low, high = self.force_range
+        valid = bool(((x >= self._valid_lo) & (x <= self._valid_hi)).all())
+        return min(max(value, low), high), valid
 
     # -- persistence
     def save(self, path: str | Path) -> None:

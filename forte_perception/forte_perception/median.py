@@ -66,7 +66,13 @@ class RunningMedian:
             out[i] = np.median(ext[:h + i + 1], axis=0)
         if n_short < n:
             first = h + n_short  # index in ext of the first row with a full window
-            view = np.lib.stride_tricks.sliding_window_view(ext[first - m + 1:], m, axis=0)
+            # (rows, channels, m) windows of ext[first - m + 1:]: a strided view, no copy
+            # (what sliding_window_view builds, without its argument handling per call)
+            base = ext[first - m + 1:]
+            rows, (row_stride, column_stride) = n - n_short, base.strides
+            view = np.lib.stride_tricks.as_strided(
+                base, (rows, self.channels, m), (row_stride, column_stride, row_stride),
+                writeable=False)
             out[n_short:] = np.partition(view, m // 2, axis=-1)[..., m // 2] if m % 2 else \
                 np.median(view, axis=-1)
         self._tail = ext[-(m - 1):].copy() if m > 1 else np.zeros((0, self.channels))

@@ -351,10 +351,12 @@ class PerceptionNode(Node):
         msg.contact = [bool(c) for c in out.contact]
         msg.slip = bool(out.slip)
         msg.slip_active = bool(out.slip_active)
-        msg.psd_max_db = [float(v) for v in out.psd_max_db]
-        msg.finger_variance = [float(v) for v in out.finger_variance]
+        # fixed-size float64 arrays take float64 numpy arrays as they are (the generated
+        # setter checks only dtype and size, not every value as it does for a list)
+        msg.psd_max_db = np.asarray(out.psd_max_db, dtype=np.float64)
+        msg.finger_variance = np.asarray(out.finger_variance, dtype=np.float64)
         msg.slip_updates = int(out.slip_updates)
-        msg.filtered = [float(v) for v in out.filtered]
+        msg.filtered = np.asarray(out.filtered, dtype=np.float64)
         msg.tared = bool(out.tared)
         msg.data_valid = bool(out.data_valid if valid is None else valid)
         msg.input_gaps = int(self._gap_offset + out.input_gaps)
