@@ -177,6 +177,24 @@ class CpuMeter:
                 for name, pid in self.pids.items()}
 
 
+def graph_meter(bringup, echo: subprocess.Popen) -> CpuMeter:
+    """A meter of every process of the graph and of the echo node."""
+    return CpuMeter({**{c.name: c.process.pid for c in bringup.children}, 'echo': echo.pid})
+
+
+def idle_phase(graph: str, label: str, meter: CpuMeter, seconds: float,
+               probe: Probe | None = None) -> None:
+    """CPU over ``seconds`` with no goal (and the latencies, given a probe)."""
+    if probe is not None:
+        probe.clear()
+    meter.start()
+    time.sleep(seconds)
+    print_cpu(graph, f'{label} ({seconds:g} s)', meter.stop())
+    if probe is not None:
+        print_latency(graph, probe)
+        probe.clear()
+
+
 def start_echo(use_sim_time: bool, folder: Path) -> subprocess.Popen:
     script = folder / 'echo_node.py'
     script.write_text(ECHO_NODE)
@@ -219,18 +237,12 @@ def run_sim(args: argparse.Namespace, folder: Path, model: Path) -> dict:
     outcomes: dict[str, int] = {}
     try:
         bringup.start(timeout=60.0)
-        meter = CpuMeter({**{c.name: c.process.pid for c in bringup.children},
-                          'echo': echo.pid})
+        meter = graph_meter(bringup, echo)
         for burner in burners:
             burner.start()
         probe.reset_perception()
         time.sleep(2.0)
-        probe.clear()
-        meter.start()
-        time.sleep(args.idle)
-        print_cpu('sim', f'idle ({args.idle:g} s)', meter.stop())
-        print_latency('sim', probe)
-        probe.clear()
+        idle_phase('sim', 'idle', meter, args.idle, probe)
         stale = 0
         grasping = 0.0
         shares_sum: dict[str, float] = {}
@@ -281,15 +293,9 @@ def run_hardware(args: argparse.Namespace, folder: Path, model: Path) -> None:
         probe = Probe()
         try:
             bringup.start(timeout=60.0)
-            meter = CpuMeter({**{c.name: c.process.pid for c in bringup.children},
-                              'echo': echo.pid})
             time.sleep(3.0)
-            probe.clear()
-            meter.start()
-            time.sleep(args.idle)
-            print_cpu('hardware', f'idle ({args.idle:g} s, emulated devices on ptys)',
-                      meter.stop())
-            print_latency('hardware', probe)
+            idle_phase('hardware', 'idle, emulated devices on ptys', graph_meter(bringup, echo),
+                       args.idle, probe)
         finally:
             probe.close()
             echo.terminate()
@@ -308,12 +314,8 @@ def run_replay(args: argparse.Namespace, folder: Path, model: Path) -> None:
     echo = start_echo(False, folder)
     try:
         bringup.start(timeout=60.0)
-        meter = CpuMeter({**{c.name: c.process.pid for c in bringup.children},
-                          'echo': echo.pid})
         time.sleep(2.0)
-        meter.start()
-        time.sleep(args.idle)
-        print_cpu('replay', f'replaying at rate 1.0 ({args.idle:g} s)', meter.stop())
+        idle_phase('replay', 'replaying at rate 1.0', graph_meter(bringup, echo), args.idle)
     finally:
         echo.terminate()
         echo.wait(10)

@@ -42,7 +42,6 @@ from collections import deque
 from dataclasses import dataclass, replace
 from typing import Any
 
-from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
@@ -61,6 +60,7 @@ from rclpy.qos import (
     qos_profile_sensor_data,
 )
 from rclpy.task import Future
+from rclpy.time import Time
 from sensor_msgs.msg import JointState
 
 from forte_control.gripper_command import GripperCommand, GripperCommandMixin
@@ -281,11 +281,10 @@ class GraspControllerNode(GripperCommandMixin, Node):
         every batch, and a loaded machine delays both alike)."""
         return max(self.get_clock().now().nanoseconds * 1e-9, self._data_time)
 
-    def _time_msg(self) -> TimeMsg:
-        """The machine's time as a header stamp: outputs carry the time of the data they
-        answer (in simulation, the sample time of the newest input)."""
-        nanoseconds = round(self._now() * 1e9)
-        return TimeMsg(sec=nanoseconds // 10**9, nanosec=nanoseconds % 10**9)
+    def _time_msg(self) -> Any:
+        """The machine's time as a header stamp (builtin_interfaces/Time): outputs carry the
+        time of the data they answer (in simulation, the sample time of the newest input)."""
+        return Time(nanoseconds=round(self._now() * 1e9)).to_msg()
 
     def _stamp(self, header: Any) -> float:
         """A message's time [s]: its header stamp, or the receive time (use_receive_time)."""
