@@ -275,6 +275,12 @@ def test_gripper_command_moves_the_simulated_gripper(sim_launch: Running):
 
 def test_grasp_action_lifts_the_object(sim_launch: Running):
     assert Grasp.Goal.FORTE == 0 and Grasp.Result.LIFTED == 1  # the numbers typed below
+    # tare first, as on the robot: by now the graph has run about a minute since its start-up
+    # tare, and 45 s of simulated sensor drift already unbalance the finger levels the lift
+    # verification compares (NOT_CARRIED on a held raspberry, README "Known limits")
+    tare = ros2('service', 'call', '/perception/tare', 'forte_msgs/srv/Tare', '{duration: 0.5}',
+                timeout=120.0)
+    assert 'success=True' in tare, tare
     output = ros2('action', 'send_goal', '/grasp', 'forte_msgs/action/Grasp',
                   '{controller: 0, lift_distance: 0.01, timeout: 60.0}', timeout=300.0)
     print(output[output.find('Result:'):])
