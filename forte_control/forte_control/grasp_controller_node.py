@@ -490,12 +490,11 @@ class GraspControllerNode(GripperCommandMixin, Node):
 
     def _reset_fault(self, response: ResetFault.Response) -> None:
         now = self._now()
-        self._machine.step(self._inputs(), now)  # the machine judges the inputs just received
-        ok, message, cleared = self._machine.reset_fault(now)
+        ok, message, cleared = self._machine.reset_fault(now, self._inputs())
         response.success = bool(ok)
         response.message = message
         response.cleared_flags = int(cleared)
-        self._last_outputs = self._machine.step(self._inputs(), self._now())
+        self._last_outputs = self._machine.step(self._inputs(), now)
         self._publish_state(force=True)
 
     # -- Grasp action --------------------------------------------------------------------
@@ -559,8 +558,7 @@ class GraspControllerNode(GripperCommandMixin, Node):
 
     async def _execute(self, goal_handle: ServerGoalHandle) -> Grasp.Result:
         """Run one Grasp goal: wait for the inputs, start the machine, await its outcome."""
-        self._goal_pending = True
-        try:
+        try:  # _goal_pending was set when the goal was accepted (_on_goal)
             goal = self.goal_from_msg(goal_handle.request)
             await self._wait_for_inputs(perception=goal.controller != Controller.ON_OFF)
             return await self._run_grasp(goal_handle, goal)

@@ -543,8 +543,17 @@ class GraspStateMachine:
         self._last_step = now
         return self._outputs(servo_changed=self._servo != servo_before, slip_reacted=False)
 
-    def reset_fault(self, now: float) -> tuple[bool, str, FaultFlag]:
+    def reset_fault(self, now: float, inputs: ControlInputs | None = None
+                    ) -> tuple[bool, str, FaultFlag]:
         """Leave FAULT (to IDLE); refused while a fault condition persists.
+
+        Parameters
+        ----------
+        now : float
+            Current time [s].
+        inputs : ControlInputs, optional
+            Latest inputs, judged for the persisting conditions (else those of the last
+            step), as in :meth:`start`.
 
         Returns
         -------
@@ -552,6 +561,8 @@ class GraspStateMachine:
             ``(success, message, cleared_flags)``.
         """
         _check_time(now)
+        if inputs is not None:
+            self._remember(inputs, now)
         if self._state != GraspState.FAULT:
             return False, f'no fault latched (state {self._state.name})', FaultFlag.NONE
         persisting = self._persisting_conditions(now)

@@ -407,6 +407,20 @@ def test_loading_waits_for_valid_force_then_faults():
     assert out.state == GraspState.FAULT and out.fault_flags == FaultFlag.INVALID_INPUT
 
 
+def test_reset_judges_the_inputs_it_is_given():
+    """A reset with inputs judges those (as start does), not those of the last step."""
+    rig = Rig()
+    rig.to_lifting()
+    rig.force = 8.5
+    out = rig.run_until(lambda o: o.state != GraspState.LIFTING, limit=0.1)
+    assert out.state == GraspState.FAULT and out.fault_flags == FaultFlag.FORCE_LIMIT
+    rig.force = 1.0
+    ok, message, _ = rig.machine.reset_fault(rig.now)  # last step saw 8.5 N
+    assert not ok and 'FORCE_LIMIT' in message
+    ok, _, cleared = rig.machine.reset_fault(rig.now, rig.inputs())  # 1.0 N, no step
+    assert ok and cleared == FaultFlag.FORCE_LIMIT
+
+
 def test_force_limit_fault_and_reset_refused_while_above():
     rig = Rig()
     rig.to_lifting()

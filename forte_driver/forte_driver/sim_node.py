@@ -87,6 +87,7 @@ class SimNode(ForteLifecycleNode):
         self._joint_publisher = None
         self._truth_publisher = None
         self._clock_publisher = None
+        self._clock_tick = 1  # samples per /clock message, from clock_rate at configure
         self._timer = None
         self._origin_ns = 0
         self._anchor_wall = 0.0
@@ -211,6 +212,9 @@ class SimNode(ForteLifecycleNode):
         if self.get_parameter('publish_clock').value:
             self._clock_publisher = self.create_lifecycle_publisher(
                 Clock, '/clock', _reliable(10))
+            # samples per /clock message (clock_rate is read-only)
+            self._clock_tick = max(1, round(1.0 / (float(self.get_parameter('clock_rate').value)
+                                                   * SAMPLE_PERIOD)))
         self.get_logger().info(
             f'scene {scene_name!r} object {object_name!r} seed '
             f'{self.get_parameter("seed").value}: theta_zeroF '
@@ -382,8 +386,7 @@ class SimNode(ForteLifecycleNode):
     def _publish_clock(self, first: int, end: int) -> None:
         """Publish /clock = the end of the batch [first, end) when a tick of ``clock_rate``
         falls in it (a batch longer than a tick publishes once)."""
-        tick = max(1, round(1.0 / (float(self.get_parameter('clock_rate').value)
-                                   * SAMPLE_PERIOD)))  # samples per /clock message
+        tick = self._clock_tick
         if first != 0 and first // tick == end // tick:
             return
         clock = Clock()
