@@ -12,6 +12,10 @@ and unit logic):
   servos in ONE sync write packet;
 * ``/diagnostics``: Hardware Error Status, temperature, input voltage, torque and the
   command/communication counters of each servo, at ``diagnostics_rate`` while configured;
+* status error byte: a state reply with an error number is not state: that sample is
+  skipped (nothing published, the previous one not repeated), counted per servo and kind,
+  and reported as an ERROR; a latched hardware error (alert bit) is reported with the
+  decoded Hardware Error Status, and commands are refused while it keeps a torque off;
 * deactivate / shutdown: the servos keep holding the grip (torque stays on) unless
   ``release_on_shutdown`` is true: a dropped object is not a safe default.
 
@@ -44,6 +48,7 @@ from forte_driver.dynamixel.gripper import (
     Gripper,
     GripperConfig,
     GripperLimits,
+    StatusError,
 )
 from forte_msgs.msg import ServoCommand
 from forte_ros import ForteLifecycleNode, run_node
@@ -97,11 +102,14 @@ class GripperDriverNode(ForteLifecycleNode):
         self._last_state_time = 0.0
         self._last_stamp = self.get_clock().now()
         self._hardware_errors: dict[int, int] = {}
+        self._hardware_error_read_failures: dict[int, str] = {}
         self._torque: dict[int, bool] = {}
+        self._reported_error_replies: dict[int, int] = {}
         self.counters = {
             'commands_sent': 0, 'commands_clipped': 0, 'commands_refused': 0,
-            'commands_ignored_inactive': 0, 'state_reads': 0, 'state_read_failures': 0,
-            'consecutive_read_failures': 0, 'write_failures': 0,
+            'commands_refused_hardware_error': 0, 'commands_ignored_inactive': 0,
+            'state_reads': 0, 'state_read_failures': 0, 'state_samples_skipped_status_error': 0,
+            'consecutive_read_failures': 0, 'write_failures': 0, 'joint_states_published': 0,
         }
         self._last_error = ''
         if self.get_parameter('autostart').value:
@@ -352,6 +360,11 @@ class GripperDriverNode(ForteLifecycleNode):
             self._last_error = str(error)
             self.get_logger().error(f'gripper/command not sent: {error}')
             return
+        if check.hardware_error:
+            self.counters['commands_refused_hardware_error'] += 1
+            self.get_logger().error(f'gripper/command not sent: {"; ".join(check.reasons)}',
+                                    throttle_duration_sec=1.0)
+            return
         if not check.accepted:
             self.counters['commands_refused'] += 1
             self.get_logger().warn(f'gripper/command refused: {"; ".join(check.reasons)}')
@@ -366,6 +379,14 @@ class GripperDriverNode(ForteLifecycleNode):
         stamp_start = self.get_clock().now()
         try:
             state = self.gripper.read_state()
+        except StatusError as error:
+            # The servo flagged its reply: not state. Skip this sample, repeat nothing.
+            self.counters['state_samples_skipped_status_error'] += 1
+            self.counters['consecutive_read_failures'] += 1
+            self._last_error = str(error)
+            self.get_logger().error(f'state sample skipped (no joint_states): {error}',
+                                    throttle_duration_sec=1.0)
+            return None
         except DynamixelError as error:
             self.counters['state_read_failures'] += 1
             self.counters['consecutive_read_failures'] += 1
@@ -396,6 +417,7 @@ class GripperDriverNode(ForteLifecycleNode):
         message.velocity = [left.velocity, right.velocity]
         message.effort = [left.effort, right.effort]
         self._joint_publisher.publish(message)
+        self.counters['joint_states_published'] += 1
 
     def _publish_diagnostics(self) -> None:
         if self.gripper is None:
@@ -403,23 +425,11 @@ class GripperDriverNode(ForteLifecycleNode):
         if time.monotonic() - self._last_state_time > 1.0:
             self._read_state()  # inactive: no state timer, keep temperature fresh
         previous = self._hardware_errors
-        try:
-            self._hardware_errors = self.gripper.read_hardware_errors()
-        except DynamixelError as error:
-            # One sync read for both failed: ask each servo, to tell which one is silent.
-            self._last_error = str(error)
-            self._hardware_errors = {}
-            for finger in self.gripper.config.fingers:
-                try:
-                    self._hardware_errors[finger.servo_id] = self.gripper.read_register(
-                        finger.servo_id, ct.HARDWARE_ERROR_STATUS)
-                except DynamixelError as servo_error:
-                    self._last_error = str(servo_error)
+        self._read_hardware_errors()
         self._torque = {}
         for servo_id in self._hardware_errors:
             try:
-                self._torque[servo_id] = bool(
-                    self.gripper.read_register(servo_id, ct.TORQUE_ENABLE))
+                self._torque[servo_id] = self.gripper.read_torque(servo_id)
             except DynamixelError as error:
                 self._last_error = str(error)
         for servo_id, bits in self._hardware_errors.items():
@@ -434,6 +444,61 @@ class GripperDriverNode(ForteLifecycleNode):
         array.status.append(self._driver_status())
         self._diagnostics_publisher.publish(array)
 
+    def _read_hardware_errors(self) -> None:
+        """Hardware Error Status of both servos; if the sync read fails, ask each servo on
+        its own, to tell which one is silent or refuses (and keep the other's status)."""
+        self._hardware_error_read_failures = {}
+        try:
+            self._hardware_errors = self.gripper.read_hardware_errors()
+            return
+        except DynamixelError as error:
+            self._last_error = str(error)
+        self._hardware_errors = {}
+        for finger in self.gripper.config.fingers:
+            try:
+                self._hardware_errors[finger.servo_id] = self.gripper.read_register(
+                    finger.servo_id, ct.HARDWARE_ERROR_STATUS)
+            except StatusError as servo_error:
+                self._last_error = str(servo_error)
+                self._hardware_error_read_failures[finger.servo_id] = (
+                    f'Hardware Error Status read refused: {servo_error}')
+            except DynamixelError as servo_error:
+                self._last_error = str(servo_error)
+                self._hardware_error_read_failures[finger.servo_id] = (
+                    'no answer to Hardware Error Status read')
+
+    def _hardware_problems(self, servo_id: int) -> tuple[int, list[str]]:
+        """(level, problems) from Hardware Error Status, the alert bit and the status
+        error numbers of one servo since the previous report."""
+        level, problems = DiagnosticStatus.OK, []
+        errors = self._hardware_errors.get(servo_id)
+        alert = self.gripper.alerts.get(servo_id)
+        if errors is None:
+            level = DiagnosticStatus.ERROR
+            problems.append(self._hardware_error_read_failures.get(
+                servo_id, 'no answer to Hardware Error Status read'))
+        elif errors and self._torque.get(servo_id) is True:
+            level = DiagnosticStatus.WARN
+            problems.append(f'hardware error: {ct.hardware_error_text(errors)} (not in the '
+                            'Shutdown mask: torque stays on)')
+        elif errors:
+            level = DiagnosticStatus.ERROR
+            problems.append(f'hardware error: {ct.hardware_error_text(errors)}')
+            problems.append('torque off by shutdown, commands refused (remove the cause, '
+                            'reboot the servo, then configure and activate)')
+        elif alert is not None:
+            level = DiagnosticStatus.WARN
+            problems.append(f'alert bit in status packets: {alert.text}')
+        replies = self.gripper.status_errors.error_replies(servo_id)
+        new = replies - self._reported_error_replies.get(servo_id, 0)
+        self._reported_error_replies[servo_id] = replies
+        if new:
+            level = DiagnosticStatus.ERROR
+            problems.append(f'{new} status replies with an error number since the last '
+                            f'report, not used as state (last: '
+                            f'{self.gripper.status_errors.last_error.get(servo_id)})')
+        return level, problems
+
     def _servo_status(self, finger: FingerConfig) -> DiagnosticStatus:
         status = DiagnosticStatus()
         status.name = f'{self.get_name()}: {finger.name} finger servo (id {finger.servo_id})'
@@ -444,15 +509,7 @@ class GripperDriverNode(ForteLifecycleNode):
                  and time.monotonic() - self._last_state_time < 3.0)
         state = self._last_state[finger.name] if fresh else None
         limit = self.gripper.limits.temperature_limit
-        problems, level = [], DiagnosticStatus.OK
-        if errors is None:
-            level = DiagnosticStatus.ERROR
-            problems.append('no answer to Hardware Error Status read')
-        elif errors:
-            level = DiagnosticStatus.ERROR
-            problems.append(f'hardware error: {ct.hardware_error_text(errors)}')
-            if not self._torque.get(finger.servo_id, False):
-                problems.append('torque off by shutdown (reboot the servo)')
+        level, problems = self._hardware_problems(finger.servo_id)
         if state is None:
             level = DiagnosticStatus.ERROR
             problems.append('no recent state read')
@@ -461,12 +518,17 @@ class GripperDriverNode(ForteLifecycleNode):
             problems.append(f'temperature {state.temperature:.0f} degC near limit {limit}')
         status.level = level
         status.message = '; '.join(problems) if problems else 'ok'
+        counts = self.gripper.status_errors.of(finger.servo_id)
         values = {
             'hardware_error_status': 'unknown' if errors is None else f'0x{errors:02x}',
             'hardware_errors': 'unknown' if errors is None else ct.hardware_error_text(errors),
+            'alert_bit': str(finger.servo_id in self.gripper.alerts),
             'torque_enabled': str(self._torque.get(finger.servo_id, 'unknown')),
             'temperature_limit_C': str(limit),
+            'status_error_replies': str(self.gripper.status_errors.error_replies(
+                finger.servo_id)),
         }
+        values.update({f'status_errors.{kind}': str(count) for kind, count in counts.items()})
         if state is not None:
             values.update({
                 'temperature_C': f'{state.temperature:.0f}',
@@ -487,6 +549,7 @@ class GripperDriverNode(ForteLifecycleNode):
                           else ('active' if self._active else 'inactive (holding)'))
         values = {name: str(value) for name, value in self.counters.items()}
         values['retried_transactions'] = str(self.gripper.retried_transactions)
+        values['alert_read_failures'] = str(self.gripper.alert_read_failures)
         values['last_error'] = self._last_error or 'none'
         values['release_on_shutdown'] = str(self.get_parameter('release_on_shutdown').value)
         status.values = [KeyValue(key=k, value=v) for k, v in values.items()]

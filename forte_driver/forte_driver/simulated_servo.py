@@ -3,32 +3,14 @@
 The real dynamixel-sdk (``PortHandler`` on :attr:`SimulatedServoBus.device_path`) talks
 to it exactly as to a U2D2 with two servos on the bus: instruction packets in, status
 packets out, with CRC-16, byte stuffing, the status error byte, the return delay time and
-the transmission time of the configured baud rate.
-
-Modelled (see docs/gripper_driver.md for the full list):
-
-* instructions PING (unicast and broadcast), READ, WRITE, SYNC READ, SYNC WRITE, REBOOT;
-  other instructions are answered with an Instruction Error (unicast) or ignored
-  (broadcast); packets with a wrong CRC are dropped and counted;
-* the control table of the XM430-W350 (EEPROM 0..63, RAM 64..146): EEPROM writes refused
-  with an Access Error while Torque Enable is 1; writes to read-only or undefined bytes
-  refused (Access Error), partial writes of an item refused (Data Length Error), values
-  out of an item's range refused (Data Range Error), Goal Current beyond Current Limit,
-  Profile/Goal Velocity beyond Velocity Limit and, in Position Control Mode (3) only,
-  Goal Position outside Min/Max Position Limit refused (Data Limit Error). A refused write
-  changes nothing. In Current-based Position Control Mode (5) the position limits are
-  not applied, as on the real servo;
-* Status Return Level, Return Delay Time, Baud Rate (a servo whose Baud Rate register does
-  not match the host's termios speed does not answer, like a real bus at the wrong baud);
-* motion: with torque on, present position moves toward Goal Position at Profile Velocity
-  (0 = the no-load speed), limited by Velocity Limit; in mode 5 the motor moves only with
-  a non-zero Goal Current and the current is limited to it; an optional obstacle stops the
-  finger (present current then rises to the goal current, as in a firm grip);
-* hardware errors: overheating (temperature rises with current squared above ambient and
-  is compared with Temperature Limit), input voltage (outside Min/Max Voltage Limit),
-  overload (saturated current held for more than 2 s), and injected electrical shock /
-  encoder errors; errors set Hardware Error Status, the alert bit (0x80) of every status
-  packet, and, for bits in Shutdown(63), switch the torque off until REBOOT.
+the transmission time of the configured baud rate. Modelled: PING, READ, WRITE, SYNC READ,
+SYNC WRITE, REBOOT; the XM430-W350 control table rules (EEPROM, access, length, range and
+limit errors; a refused write changes nothing); Status Return Level, Return Delay Time,
+Baud Rate; motion, current, temperature; hardware errors (overheating, input voltage,
+overload, injected ones) with the alert bit in every status and, for bits in Shutdown(63),
+torque off until REBOOT; error numbers injected in the status of a given instruction
+(:mod:`forte_driver.dynamixel.servo_faults`). The full list, and what is not modelled, is
+in docs/gripper_driver.md.
 
 Run ``forte_simulated_servo`` to get a bus on a pty from the command line; it prints the
 device path (and can symlink it to a stable name with ``--link``).
@@ -52,6 +34,7 @@ from dataclasses import dataclass
 
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import protocol as proto
+from forte_driver.dynamixel.servo_faults import StatusFaults
 
 NO_LOAD_SPEED_UNITS = 200
 """No-load speed of the XM430-W350 at 12 V (46 rev/min) in velocity units (0.229 rpm)."""
@@ -365,6 +348,7 @@ class SimulatedServoBus:
         """Every instruction packet with a valid CRC, in order of reception."""
         self.instruction_counts: collections.Counter[int] = collections.Counter()
         self.ignored_wrong_baud = 0
+        self.faults = StatusFaults()  # injected error numbers in status packets
         self._parser = proto.PacketParser()
         self._master = -1
         self._slave = -1
@@ -429,6 +413,16 @@ class SimulatedServoBus:
         """Latch hardware error ``bits`` in a servo (see control_table.HW_ERROR_*)."""
         with self.lock:
             self.servos[device_id].inject_hardware_error(bits)
+
+    def inject_status_error(self, device_id: int, error_number: int, *args, **kwargs) -> None:
+        """Answer an instruction with ``error_number``: see ``StatusFaults.inject``."""
+        with self.lock:
+            self.faults.inject(device_id, error_number, *args, **kwargs)
+
+    def clear_status_errors(self, device_id: int | None = None) -> int:
+        """Drop pending status error injections; returns how many were pending."""
+        with self.lock:
+            return self.faults.clear(device_id)
 
     def set_servo(self, device_id: int, **attributes) -> None:
         """Set physical attributes of a servo (position, temperature, input_voltage_units,
@@ -521,7 +515,8 @@ class SimulatedServoBus:
                 with self.lock:
                     body = (ct.encode_value(ct.MODEL_NUMBER, servo.get(ct.MODEL_NUMBER))
                             + bytes([servo.get(ct.FIRMWARE_VERSION)]))
-                    status = proto.build_status(device_id, servo.alert_bit(), body)
+                    error, body = self.faults.spoil(device_id, instruction, None, 0, body)
+                    status = proto.build_status(device_id, error | servo.alert_bit(), body)
                 deadline = self._reply(servo, status, size, deadline)
         elif broadcast:
             if instruction == proto.INSTRUCTION_WRITE and len(params) >= 3:
@@ -536,6 +531,9 @@ class SimulatedServoBus:
         data = b''
         with self.lock:
             level = servo.get(ct.STATUS_RETURN_LEVEL)
+            fault = self.faults.take(servo.device_id, instruction,
+                                     params[0] | params[1] << 8 if len(params) >= 2 else None)
+            executes = fault is None  # an injected error: refused, not executed
             if instruction == proto.INSTRUCTION_READ:
                 if len(params) != 4:
                     error = ct.STATUS_ERROR_DATA_LENGTH
@@ -544,17 +542,19 @@ class SimulatedServoBus:
                                              params[2] | params[3] << 8)
                 respond = level >= 1
             elif instruction == proto.INSTRUCTION_WRITE:
-                error = (servo.write(params[0] | params[1] << 8, params[2:])
-                         if len(params) >= 3 else ct.STATUS_ERROR_DATA_LENGTH)
+                error = ((servo.write(params[0] | params[1] << 8, params[2:]) if executes
+                          else 0) if len(params) >= 3 else ct.STATUS_ERROR_DATA_LENGTH)
                 respond = level >= 2
             elif instruction == proto.INSTRUCTION_REBOOT:
                 error, respond = 0, level >= 2
             else:
                 error, respond = ct.STATUS_ERROR_INSTRUCTION, level >= 2
+            if fault is not None:
+                error, data = fault.spoiled(data)
             status = proto.build_status(servo.device_id, error | servo.alert_bit(), data)
         if respond:
             self._reply(servo, status, size, 0.0)
-        if instruction == proto.INSTRUCTION_REBOOT:
+        if instruction == proto.INSTRUCTION_REBOOT and executes:
             with self.lock:
                 servo.reboot()
 
@@ -582,7 +582,8 @@ class SimulatedServoBus:
             if servo is None:
                 continue  # an absent servo does not answer; later ones still do
             with self.lock:
-                error, data = servo.read(address, length)
+                error, data = self.faults.spoil(device_id, proto.INSTRUCTION_SYNC_READ, address,
+                                                *servo.read(address, length))
                 status = proto.build_status(device_id, error | servo.alert_bit(), data)
             deadline = self._reply(servo, status, size, deadline)
 
@@ -613,13 +614,12 @@ class SimulatedServoProcess:
     --control``), so that its answer times do not depend on the host process's threads
     and interpreter lock, like a real device.
 
-    The inspection and fault-injection methods of the bus (``count``, ``packet_log``,
-    ``register_value``, ``inject_hardware_error``, ``set_servo``) are forwarded as JSON
-    lines over the child's stdin/stdout.
+    The inspection and fault-injection methods of the bus (:attr:`FORWARDED`) are
+    forwarded as JSON lines over the child's stdin/stdout.
     """
 
     FORWARDED = ('count', 'packet_log', 'register_value', 'inject_hardware_error',
-                 'set_servo')
+                 'inject_status_error', 'clear_status_errors', 'set_servo')
 
     def __init__(self, ids=(1, 2), baud_rate: int = 4_000_000, positions=None):
         self._arguments = ['--ids', *map(str, ids), '--baud', str(baud_rate)]

@@ -207,6 +207,64 @@ def test_hardware_error_status_and_temperature_in_diagnostics(bus, harness):
     assert warm is not None and 'near limit 70' in warm.message
 
 
+def state_sync_reads(bus):
+    """Sync reads of the state block (Present Current 126 ..) the servos received."""
+    return sum(1 for instruction, _, parameters in bus.packet_log()
+               if instruction == proto.INSTRUCTION_SYNC_READ and parameters[0] == 126)
+
+
+def test_state_replies_with_an_error_number_are_not_published(bus, harness):
+    configure_and_activate(harness)
+    driver = harness.driver
+    assert harness.joint_state_where(lambda m: True)
+    bus.inject_status_error(2, ct.STATUS_ERROR_DATA_RANGE, 'sync read', count=30, address=126)
+    assert wait_for(lambda: driver.counters['state_samples_skipped_status_error'] == 30)
+    status = harness.servo_status(2, lambda s: s.level == DiagnosticStatus.ERROR
+                                  and 'data range error' in s.message)
+    assert status is not None, 'the error replies never surfaced in /diagnostics'
+    assert 'not used as state' in status.message
+    assert values_of(status)['status_errors.data range error'] == '30'
+    assert harness.servo_status(1, lambda s: s.level == DiagnosticStatus.OK)
+    assert driver.gripper.status_errors.of(2) == {'data range error': 30}
+    assert harness.transition(Transition.TRANSITION_DEACTIVATE)  # stop sampling, then count
+    counters = driver.counters
+    # Every state sync read the servos received (but the one of activate, which commands
+    # "hold here") is a used sample, a skipped error reply or a lost reply; joint_states
+    # come only from used samples, none repeated.
+    assert wait_for(lambda: state_sync_reads(bus) == 1 + counters['state_reads']
+                    + counters['state_samples_skipped_status_error']
+                    + counters['state_read_failures']), (state_sync_reads(bus), counters)
+    assert wait_for(lambda: len(harness.joint_states) == counters['joint_states_published'])
+    assert counters['joint_states_published'] <= counters['state_reads']
+    assert len(harness.joint_states) <= state_sync_reads(bus) - 30
+    stamps = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in harness.joint_states]
+    assert all(later > earlier for earlier, later in zip(stamps, stamps[1:], strict=False))
+
+
+def test_latched_hardware_error_refuses_commands_while_readings_flow(bus, harness):
+    configure_and_activate(harness)
+    driver = harness.driver
+    bus.inject_hardware_error(1, ct.HW_ERROR_INPUT_VOLTAGE)  # torque stays on: WARN
+    warned = harness.servo_status(1, lambda s: s.level == DiagnosticStatus.WARN)
+    assert warned is not None and 'input voltage error' in warned.message
+    assert values_of(warned)['alert_bit'] == 'True'
+    before = bus.count(proto.INSTRUCTION_SYNC_WRITE)
+    harness.send(0.3, max_current=0.4)  # still obeyed
+    assert wait_for(lambda: bus.count(proto.INSTRUCTION_SYNC_WRITE) == before + 1)
+    bus.inject_hardware_error(2, ct.HW_ERROR_ELECTRICAL_SHOCK)  # shutdown: torque off
+    status = harness.servo_status(2, lambda s: s.level == DiagnosticStatus.ERROR)
+    assert status is not None and 'electrical shock error' in status.message
+    assert 'commands refused' in status.message
+    assert values_of(status)['torque_enabled'] == 'False'
+    assert wait_for(lambda: 2 in driver.gripper.alerts)
+    count = len(harness.joint_states)
+    harness.send(0.5)
+    assert wait_for(lambda: driver.counters['commands_refused_hardware_error'] == 1)
+    assert wait_for(lambda: len(harness.joint_states) > count + 20)  # readings still flow
+    assert bus.count(proto.INSTRUCTION_SYNC_WRITE) == before + 1  # nothing sent
+    assert driver.counters['state_samples_skipped_status_error'] == 0
+
+
 def test_silent_servos_give_no_joint_states_and_an_error_until_they_answer_again(bus, harness):
     configure_and_activate(harness)
     assert harness.joint_state_where(lambda m: True)

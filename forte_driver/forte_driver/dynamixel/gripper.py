@@ -21,6 +21,13 @@ the servo to mode 3), reads them back, and clips every goal position to the read
 registers itself. Current Limit(38) and Velocity Limit(44) are enforced by the servo in
 mode 5: Goal Current beyond Current Limit and Profile Velocity beyond Velocity Limit are
 refused by the firmware.
+
+Status error byte (see :mod:`forte_driver.dynamixel.status_errors`): every status packet
+of every transaction (ping, read, write, each servo's reply to a sync read) is counted in
+:attr:`Gripper.status_errors`; a non-zero error number raises :class:`StatusError` and
+its data are never used; the alert bit alone does not invalidate the data but makes the
+gripper read Hardware Error Status and Torque Enable of that servo (:attr:`Gripper.alerts`)
+and refuse commands while that servo's torque is not known to be on.
 """
 from __future__ import annotations
 
@@ -39,6 +46,18 @@ from dynamixel_sdk import (
 
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import units
+from forte_driver.dynamixel.commands import CommandCheck, GripperLimits, check_command
+from forte_driver.dynamixel.status_errors import (
+    ERROR_NUMBER_MASK,
+    DynamixelError,
+    HardwareAlert,
+    StatusError,
+    StatusErrorCounts,
+    sync_read_with_status,
+)
+
+__all__ = ['CommandCheck', 'ConfigureReport', 'DynamixelError', 'FingerConfig', 'FingerState',
+           'Gripper', 'GripperConfig', 'GripperLimits', 'StatusError', 'check_command']
 
 PROTOCOL_VERSION = 2.0
 SERIAL_READ_BLOCK_S = 0.001
@@ -58,10 +77,6 @@ def _check_no_stuffing_needed(data: bytes, what: str) -> None:
     if HEADER_PATTERN in data:
         raise DynamixelError(f'{what}: data {data.hex()} contains FF FF FD, which needs '
                              'byte stuffing that dynamixel-sdk 4.1.0 does not transmit')
-
-
-class DynamixelError(RuntimeError):
-    """A transaction with a servo failed (no answer, corrupt answer, or error in status)."""
 
 
 @dataclass(frozen=True)
@@ -95,29 +110,6 @@ class FingerConfig:
     def raw_to_theta(self, raw: float) -> float:
         """Gripper angle [rad] of raw position ``raw`` [pulse]."""
         return self.direction * units.pulses_to_radians(raw - self.zero_position)
-
-
-@dataclass(frozen=True)
-class GripperLimits:
-    """Limits written into both servos' EEPROM at configure.
-
-    Attributes
-    ----------
-    theta_min, theta_max : float
-        Allowed gripper angle range [rad] (0 = fully closed).
-    current_limit : float
-        Current Limit [A] (the servo refuses larger Goal Currents); 0.00269..3.209 A.
-    velocity_limit : float
-        Velocity Limit [rad/s] (the servo refuses larger Profile Velocities); <= 24.5 rad/s.
-    temperature_limit : int
-        Temperature Limit [degC] (overheating error above it); 0..100.
-    """
-
-    theta_min: float = 0.0
-    theta_max: float = 1.0
-    current_limit: float = 1.0
-    velocity_limit: float = 4.796
-    temperature_limit: int = 70
 
 
 @dataclass(frozen=True)
@@ -229,89 +221,6 @@ class GripperConfig:
         }
 
 
-@dataclass
-class CommandCheck:
-    """Outcome of validating one gripper command.
-
-    Attributes
-    ----------
-    accepted : bool
-        False if the command must not be sent (``reasons`` says why).
-    theta : float
-        Goal angle after clipping [rad].
-    current : float
-        Goal Current after defaulting/clipping [A].
-    profile_velocity : float
-        Profile Velocity after defaulting/clipping [rad/s].
-    clipped : bool
-        True if a value was changed to fit the limits.
-    reasons : list of str
-        Why the command was refused or clipped (empty if sent as given).
-    """
-
-    accepted: bool
-    theta: float = 0.0
-    current: float = 0.0
-    profile_velocity: float = 0.0
-    clipped: bool = False
-    reasons: list[str] = field(default_factory=list)
-
-
-def check_command(theta: float, current: float, profile_velocity: float,
-                  limits: GripperLimits, default_current: float,
-                  default_profile_velocity: float) -> CommandCheck:
-    """Validate a command against the limits (pure; known-answer tested).
-
-    Non-finite values and negative current or velocity are refused (nothing is sent);
-    0 current / velocity mean "driver default"; values beyond the limits are clipped
-    to them, with the reason.
-
-    Parameters
-    ----------
-    theta : float
-        Requested gripper angle [rad].
-    current : float
-        Requested current limit for the move [A]; 0 = default.
-    profile_velocity : float
-        Requested maximum speed [rad/s]; 0 = default.
-    limits : GripperLimits
-        Limits (normally as read back from the servos).
-    default_current, default_profile_velocity : float
-        Defaults [A], [rad/s].
-
-    Returns
-    -------
-    CommandCheck
-        The values to send, or a refusal.
-    """
-    names = {'position': theta, 'max_current': current, 'profile_velocity': profile_velocity}
-    bad = [f'{name}={value} is not finite' for name, value in names.items()
-           if not math.isfinite(value)]
-    if bad:
-        return CommandCheck(False, reasons=bad)
-    if current < 0.0:
-        return CommandCheck(False, reasons=[f'max_current={current} A is negative'])
-    if profile_velocity < 0.0:
-        return CommandCheck(False, reasons=[
-            f'profile_velocity={profile_velocity} rad/s is negative'])
-    check = CommandCheck(True, theta, current or default_current,
-                         profile_velocity or default_profile_velocity)
-    if theta < limits.theta_min or theta > limits.theta_max:
-        check.theta = min(max(theta, limits.theta_min), limits.theta_max)
-        check.reasons.append(f'position {theta:.4f} rad clipped to {check.theta:.4f} rad '
-                             f'(limits {limits.theta_min:.4f}..{limits.theta_max:.4f})')
-    if check.current > limits.current_limit:
-        check.reasons.append(f'max_current {check.current:.3f} A clipped to current_limit '
-                             f'{limits.current_limit:.3f} A')
-        check.current = limits.current_limit
-    if check.profile_velocity > limits.velocity_limit:
-        check.reasons.append(f'profile_velocity {check.profile_velocity:.3f} rad/s clipped '
-                             f'to velocity_limit {limits.velocity_limit:.3f} rad/s')
-        check.profile_velocity = limits.velocity_limit
-    check.clipped = bool(check.reasons)
-    return check
-
-
 @dataclass(frozen=True)
 class FingerState:
     """One finger at one instant, in SI units along theta (positive = opening).
@@ -388,6 +297,13 @@ class Gripper:
         self._error_read: GroupSyncRead | None = None
         self.retried_transactions = 0
         """Single-servo transactions that needed a retry (lost or corrupt status)."""
+        self.status_errors = StatusErrorCounts()
+        """Status packets with a non-zero error byte, per servo and per kind."""
+        self.alerts: dict[int, HardwareAlert] = {}
+        """Servos whose latest status packet had the alert bit (absent: no alert)."""
+        self.alert_read_failures = 0
+        """Reads of Hardware Error Status / Torque Enable after an alert bit that failed."""
+        self._reading_alert = False
 
     # -- port --------------------------------------------------------------------
     @property
@@ -432,14 +348,43 @@ class Gripper:
         return self.port
 
     # -- single-servo transactions -------------------------------------------------
-    def _check(self, servo_id: int, what: str, result: int, error: int,
-               allow_alert: bool = True) -> None:
+    def _check(self, servo_id: int, what: str, result: int, error: int) -> None:
         if result != COMM_SUCCESS:
             raise DynamixelError(f'servo {servo_id}: {what}: '
                                  f'{self.packet_handler.getTxRxResult(result)}')
-        number = error & 0x7F
-        if number or (error and not allow_alert):
-            raise DynamixelError(f'servo {servo_id}: {what}: {ct.status_error_text(error)}')
+        self._judge({servo_id: error}, what)
+
+    def _judge(self, errors: dict[int, int], what: str) -> None:
+        """Count each servo's status error byte, follow its alert bit, and raise
+        :class:`StatusError` if any error number is non-zero (that reply is not used)."""
+        for servo_id, error in errors.items():
+            self.status_errors.record(servo_id, error, what)
+            self._follow_alert(servo_id, bool(error & ct.STATUS_ALERT_BIT))
+        failed = {servo_id: error for servo_id, error in errors.items()
+                  if error & ERROR_NUMBER_MASK}
+        if failed:
+            raise StatusError(what, failed)
+
+    def _follow_alert(self, servo_id: int, alert: bool) -> None:
+        """On the first status with the alert bit, read Hardware Error Status and Torque
+        Enable of that servo (once per alert, not every sample); forget it when a status
+        comes without the alert bit (after a reboot)."""
+        if not alert:
+            self.alerts.pop(servo_id, None)
+            return
+        known = self.alerts.get(servo_id)
+        if self._reading_alert or (known is not None and known.bits is not None):
+            return
+        self._reading_alert = True
+        self.alerts[servo_id] = HardwareAlert()
+        try:
+            bits = self.read_register(servo_id, ct.HARDWARE_ERROR_STATUS)
+            torque = bool(self.read_register(servo_id, ct.TORQUE_ENABLE))
+            self.alerts[servo_id] = HardwareAlert(bits, torque)
+        except DynamixelError:
+            self.alert_read_failures += 1  # bits stay unknown: retried at the next alert
+        finally:
+            self._reading_alert = False
 
     def _transaction(self, function, *args):
         """Run an idempotent SDK transaction, retrying a lost or corrupt status packet."""
@@ -552,9 +497,15 @@ class Gripper:
 
     # -- torque ---------------------------------------------------------------------
     def torque_enabled(self) -> dict[int, bool]:
-        """id -> Torque Enable(64)."""
-        return {f.servo_id: bool(self.read_register(f.servo_id, ct.TORQUE_ENABLE))
-                for f in self.config.fingers}
+        """id -> Torque Enable(64) (also updates :attr:`alerts`)."""
+        return {f.servo_id: self.read_torque(f.servo_id) for f in self.config.fingers}
+
+    def read_torque(self, servo_id: int) -> bool:
+        """Torque Enable(64) of one servo (also updates its entry in :attr:`alerts`)."""
+        enabled = bool(self.read_register(servo_id, ct.TORQUE_ENABLE))
+        if servo_id in self.alerts:
+            self.alerts[servo_id] = HardwareAlert(self.alerts[servo_id].bits, enabled)
+        return enabled
 
     def set_torque(self, enabled: bool) -> None:
         """Switch both servos' torque on or off (checked per servo)."""
@@ -603,8 +554,16 @@ class Gripper:
         Returns
         -------
         CommandCheck
-            What was sent (or why nothing was sent: ``accepted`` False).
+            What was sent (or why nothing was sent: ``accepted`` False; with
+            ``hardware_error`` True if a servo has a latched hardware error and its torque
+            is not known to be on, since a sync write has no status to tell it failed).
         """
+        blocked = [f'servo {servo_id}: hardware error latched ({alert.text}), torque '
+                   f'{"off" if alert.torque_enabled is False else "state unknown"}; remove '
+                   'the cause, reboot or power-cycle the servo, then configure and activate'
+                   for servo_id, alert in sorted(self.alerts.items()) if alert.blocks_commands]
+        if blocked:
+            return CommandCheck(False, reasons=blocked, hardware_error=True)
         check = self.check(theta, current, profile_velocity)
         if check.accepted:
             raw = {f.servo_id: f.theta_to_raw(check.theta) for f in self.config.fingers}
@@ -638,18 +597,20 @@ class Gripper:
     def read_state(self) -> dict[str, FingerState]:
         """One sync read of both fingers; ``{'left': FingerState, 'right': FingerState}``.
 
-        Raises DynamixelError if any servo does not answer (no value is ever invented).
+        Raises DynamixelError if any servo does not answer (no value is ever invented), and
+        StatusError if any reply has a non-zero error number (its data are not used). A
+        reply with the alert bit alone is used (see :attr:`alerts`).
         """
         reader = self._state_read
         if reader is None:
             raise DynamixelError('port is not open')
-        result = reader.txRxPacket()
-        if result != COMM_SUCCESS:
-            raise DynamixelError(f'sync read of state: '
-                                 f'{self.packet_handler.getTxRxResult(result)}')
+        replies = sync_read_with_status(reader, self.packet_handler, self._require_port(),
+                                        'sync read of state')
+        self._judge({servo_id: error for servo_id, (_, error) in replies.items()},
+                    'sync read of state')
         states = {}
         for finger in self.config.fingers:
-            data = bytes(reader.data_dict[finger.servo_id])
+            data = replies[finger.servo_id][0]
             if len(data) != ct.STATE_BLOCK_LENGTH:
                 raise DynamixelError(f'servo {finger.servo_id}: short state block')
 
@@ -673,15 +634,19 @@ class Gripper:
         return states
 
     def read_hardware_errors(self) -> dict[int, int]:
-        """One sync read of Hardware Error Status(70): id -> error bits."""
+        """One sync read of Hardware Error Status(70): id -> error bits (status checked)."""
         reader = self._error_read
         if reader is None:
             raise DynamixelError('port is not open')
-        result = reader.txRxPacket()
-        if result != COMM_SUCCESS:
-            raise DynamixelError(f'sync read of hardware error status: '
-                                 f'{self.packet_handler.getTxRxResult(result)}')
-        return {f.servo_id: bytes(reader.data_dict[f.servo_id])[0] for f in self.config.fingers}
+        what = 'sync read of hardware error status'
+        replies = sync_read_with_status(reader, self.packet_handler, self._require_port(), what)
+        self._judge({servo_id: error for servo_id, (_, error) in replies.items()}, what)
+        if any(len(data) != 1 for data, _ in replies.values()):
+            raise DynamixelError(f'{what}: short reply')
+        bits = {servo_id: data[0] for servo_id, (data, _) in replies.items()}
+        for servo_id, alert in list(self.alerts.items()):
+            self.alerts[servo_id] = HardwareAlert(bits.get(servo_id), alert.torque_enabled)
+        return bits
 
     def shutdown(self, release: bool) -> None:
         """End of use: keep holding the grip (torque on) unless ``release``; close the port."""
