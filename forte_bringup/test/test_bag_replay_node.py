@@ -8,6 +8,7 @@ cycle that colcon refuses to order).
 """
 from __future__ import annotations
 
+import struct
 import threading
 import time
 from pathlib import Path
@@ -201,6 +202,36 @@ def test_truncated_bag_reports_the_damage_and_replays_the_intact_part(ros, tmp_p
     assert len(collector.received) == expected
     for index, (_, message) in enumerate(collector.received):
         assert_frames_equal(message, index)
+
+
+def test_damaged_chunks_in_the_middle_lose_only_the_unverifiable_chunk(ros, tmp_path):
+    """rosbags writes CRC 0: a chunk whose records do not parse is skipped, reading goes
+    on; a chunk whose only damage is its length field is read by its content."""
+    bag = write_project_bag(tmp_path / 'bag', 3000)  # four 1 MiB chunks, uncompressed
+    mcap_file = next(bag.glob('*.mcap'))
+    with mcap_file.open('rb') as stream:
+        chunks = sorted(make_reader(stream).get_summary().chunk_indexes,
+                        key=lambda index: index.chunk_start_offset)
+    assert len(chunks) >= 3
+    bad, length_only = chunks[1], chunks[2]
+    with mcap_file.open('r+b') as stream:
+        stream.seek(bad.chunk_start_offset + 9 + 40 + 1)  # length of its first record
+        stream.write(struct.pack('<Q', 10**9))
+        stream.seek(length_only.chunk_start_offset + 1)  # the chunk record's length field
+        stream.write(struct.pack('<Q', 2**40))
+    lost = [index for index in range(3000)
+            if bad.message_start_time <= START_NS + index * PERIOD_NS <= bad.message_end_time]
+    assert 0 < len(lost) < 3000
+    node, collector = replay(ros, bag)
+    kept = [index for index in range(3000) if index not in set(lost)]
+    assert node.published == {'/tactile/frames': len(kept)}
+    assert [m.first_sequence for _, m in collector.received] == [20 * i for i in kept]
+    report = node.report
+    assert report.chunks_skipped == 1 and report.messages_lost == len(lost)
+    assert report.bytes_skipped == bad.chunk_length and report.unknown_losses == 0
+    assert [(loss.start, loss.end) for loss in report.losses] == [
+        (bad.chunk_start_offset, bad.chunk_start_offset + bad.chunk_length)]
+    assert any('damaged length field' in error for error in report.errors)
 
 
 def test_corrupt_payload_is_skipped_and_counted(ros, tmp_path):

@@ -7,9 +7,11 @@ by ``rate`` (1.0 = original timing, 2.0 = twice as fast), or ``rate: 0.0`` repla
 fast as possible for offline evaluation (use ``reliable: true`` and reliable subscribers
 then, or best-effort subscribers may miss messages).
 
-A truncated or corrupt bag is reported with a clear error (file, byte offset, messages
-recovered) on the log and on ``/diagnostics``; every intact message is still replayed.
-The reading itself is :mod:`forte_driver.mcap_source` (no rclpy).
+A truncated or corrupt bag is reported with a clear error per loss (file, byte range,
+chunk or bytes, reason, messages lost) on the log, and as counts on ``/diagnostics``
+(``chunks_skipped``, ``bytes_skipped``, ``messages_lost``, ``losses_of_unknown_count``);
+every intact message is still replayed. The reading itself is
+:mod:`forte_driver.mcap_source` (no rclpy).
 
 Parameters: ``bag_path``, ``topics``, ``rate``, ``reliable``, ``start_delay``,
 ``wait_for_subscribers``, ``exit_when_done`` (see their descriptors).
@@ -280,10 +282,17 @@ class BagReplayNode(Node):
             summary = ', '.join(f'{t}: {n}' for t, n in sorted(self.published.items()))
             logger = self.get_logger()
             log = logger.info if self.report.complete else logger.warning
+            report = self.report
+            damage = 'complete'
+            if not report.complete:
+                damage = (
+                    f'DAMAGED (see errors above): {report.chunks_skipped} chunk(s) and '
+                    f'{report.bytes_skipped} bytes skipped, {report.messages_lost} messages '
+                    f'lost, {report.unknown_losses} skipped range(s) of unknown message count'
+                )
             log(
                 f'replay finished: {total} messages published ({summary or "none"}), '
-                f'{self.undecodable} undecodable, bag '
-                f'{"complete" if self.report.complete else "DAMAGED (see errors above)"}'
+                f'{self.undecodable} undecodable, bag {damage}'
             )
         except BagError as error:
             self.get_logger().error(f'cannot replay {self.bag_path}: {error}')
@@ -313,6 +322,10 @@ class BagReplayNode(Node):
             KeyValue(key='published', value=str(sum(self.published.values()))),
             KeyValue(key='undecodable', value=str(self.undecodable)),
             KeyValue(key='damage_reports', value=str(len(self.report.errors))),
+            KeyValue(key='chunks_skipped', value=str(self.report.chunks_skipped)),
+            KeyValue(key='bytes_skipped', value=str(self.report.bytes_skipped)),
+            KeyValue(key='messages_lost', value=str(self.report.messages_lost)),
+            KeyValue(key='losses_of_unknown_count', value=str(self.report.unknown_losses)),
             KeyValue(key='done', value=str(self.done.is_set())),
         ]
         array = DiagnosticArray()

@@ -1,4 +1,4 @@
-"""Read serialized ROS 2 messages from MCAP bags, tolerating truncated and corrupt files.
+"""Read serialized ROS 2 messages from MCAP bags, recovering every intact message.
 
 Pure library (no rclpy): the bag replay node and the offline tools use it. A bag is one of
 
@@ -9,31 +9,21 @@ Pure library (no rclpy): the bag replay node and the offline tools use it. A bag
 
 Messages come out as CDR bytes with their topic, ROS type name and log time; decoding is
 the caller's business (``rclpy.serialization.deserialize_message`` in the node, or
-``mcap_ros2``). The files are read record by record from the start (the summary section
-at the end is not needed), so a file cut short or damaged in the middle still yields
-every message of every intact chunk before the damage; the damage is described in a
-:class:`BagReadReport` instead of being silently skipped or papered over.
+``mcap_ros2``). Each file is read forward record by record, one chunk in memory at a
+time (:mod:`forte_driver.mcap_recovery`): a damaged record does not end the reading, the
+reader finds the next valid record (with the summary's chunk index when it is intact,
+else by scanning) and goes on, a chunk whose content does not verify is skipped whole,
+and a :class:`BagReadReport` lists every skipped byte range, chunk and message count.
 """
 from __future__ import annotations
 
-import io
 import re
-import struct
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mcap.data_stream import ReadDataStream
-from mcap.exceptions import McapError
-from mcap.opcode import Opcode
-from mcap.reader import SeekingReader
-from mcap.records import Channel, Chunk, Message, Schema
-from mcap.stream_reader import StreamReader, breakup_chunk
-
-#: Exceptions that mean "this file is damaged from here on" while streaming records. A
-#: damaged length field can make the decoder raise almost anything (OverflowError,
-#: MemoryError, zstd/lz4 errors), so every ordinary exception counts as damage.
-_DAMAGE_ERRORS = (McapError, EOFError, struct.error, Exception)
+from forte_driver.mcap_records import MAGIC, ChannelRecord, MessageRecord, SchemaRecord
+from forte_driver.mcap_recovery import LostRange, Note, RecoveringReader
 
 
 class BagError(RuntimeError):
@@ -65,9 +55,38 @@ class BagMessage:
     data: bytes
 
 
+@dataclass(frozen=True)
+class BagLoss:
+    """Something of a bag file that was not replayed.
+
+    Attributes
+    ----------
+    file : Path
+        The MCAP file.
+    start, end : int or None
+        Byte range [start, end) skipped; None for messages on an unknown channel (spread
+        over the file).
+    kind : str
+        ``'chunk'`` (one whole chunk record), ``'bytes'`` (bytes not identified as a
+        chunk) or ``'unknown channel'``.
+    reason : str
+        Why (the damage found).
+    messages : int or None
+        Messages lost [count] (all topics), from the chunk's message index records;
+        None when unknown.
+    """
+
+    file: Path
+    start: int | None
+    end: int | None
+    kind: str
+    reason: str
+    messages: int | None
+
+
 @dataclass
 class BagReadReport:
-    """What reading a bag found: files, counts per topic, damage.
+    """What reading a bag found: files, counts per topic, damage and losses.
 
     Attributes
     ----------
@@ -75,13 +94,16 @@ class BagReadReport:
         MCAP files read, in order.
     messages : dict of str to int
         Messages yielded per topic [count].
+    losses : list of BagLoss
+        Everything skipped, in file order.
     errors : list of str
-        One human-readable description per damaged file (file, byte offset, messages
-        recovered before the damage, the decoder's error).
+        One human-readable line per loss and per damage that lost nothing (missing
+        footer, unusable summary, repaired chunk length field), in the order found.
     """
 
     files: list[Path] = field(default_factory=list)
     messages: dict[str, int] = field(default_factory=dict)
+    losses: list[BagLoss] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
 
     @property
@@ -93,6 +115,26 @@ class BagReadReport:
     def total_messages(self) -> int:
         """Messages yielded over all topics [count]."""
         return sum(self.messages.values())
+
+    @property
+    def chunks_skipped(self) -> int:
+        """Whole chunks not replayed [count]."""
+        return sum(1 for loss in self.losses if loss.kind == 'chunk')
+
+    @property
+    def bytes_skipped(self) -> int:
+        """Bytes of the files' data sections not replayed [bytes]."""
+        return sum(loss.end - loss.start for loss in self.losses if loss.start is not None)
+
+    @property
+    def messages_lost(self) -> int:
+        """Messages known to be lost (all topics) [count]; see :attr:`unknown_losses`."""
+        return sum(loss.messages or 0 for loss in self.losses)
+
+    @property
+    def unknown_losses(self) -> int:
+        """Losses whose message count is unknown (damaged bytes without index) [count]."""
+        return sum(1 for loss in self.losses if loss.messages is None)
 
 
 def _natural_key(path: Path) -> list[object]:
@@ -128,102 +170,85 @@ def bag_files(path: str | Path) -> list[Path]:
     return files
 
 
-def _summary(file: Path):  # -> mcap.summary.Summary | None
-    """The file's summary section (schemas, channels, chunk index), or None if unreadable."""
-    try:
-        with file.open('rb') as stream:
-            return SeekingReader(stream).get_summary()
-    except _DAMAGE_ERRORS:
-        return None
-
-
 class _FileReader:
-    """Streams one MCAP file's messages; bookkeeping of what was recovered."""
+    """Streams one MCAP file's messages into bag messages; fills in the report."""
 
     def __init__(self, file: Path, topics: frozenset[str] | None, report: BagReadReport):
         self.file = file
         self.topics = topics
         self.report = report
         self.schemas: dict[int, str] = {}
-        self.channels: dict[int, tuple[str, str]] = {}
-        self.recovered = 0
+        self.channels: dict[int, ChannelRecord] = {}
+        self.unknown_channels: dict[int, int] = {}
+        self.from_summary: set[tuple[str, int]] = set()  # definitions the data may replace
 
-    def _handle(self, record: object) -> BagMessage | None:
-        if isinstance(record, Schema):
-            self.schemas[record.id] = record.name
-        elif isinstance(record, Channel):
-            self.channels[record.id] = (record.topic, self.schemas.get(record.schema_id, ''))
-        elif isinstance(record, Message):
-            topic, msgtype = self.channels.get(record.channel_id, ('', ''))
-            if not topic:
-                self.report.errors.append(
-                    f'{self.file}: message on unknown channel {record.channel_id} skipped'
-                )
-                return None
-            if self.topics is not None and topic not in self.topics:
-                return None
-            self.recovered += 1
-            self.report.messages[topic] = self.report.messages.get(topic, 0) + 1
-            return BagMessage(
-                topic, msgtype, record.log_time, record.publish_time, bytes(record.data)
-            )
-        return None
+    def _message(self, record: MessageRecord) -> BagMessage | None:
+        channel = self.channels.get(record.channel_id)
+        if channel is None:
+            self.unknown_channels[record.channel_id] = (
+                self.unknown_channels.get(record.channel_id, 0) + 1)
+            return None
+        if self.topics is not None and channel.topic not in self.topics:
+            return None
+        topic = channel.topic
+        self.report.messages[topic] = self.report.messages.get(topic, 0) + 1
+        return BagMessage(topic, self.schemas.get(channel.schema_id, ''), record.log_time,
+                          record.publish_time, record.data)
+
+    def _define(self, record: SchemaRecord | ChannelRecord) -> None:
+        """Learn a schema or channel; the data section's definition beats the summary's."""
+        table = self.schemas if isinstance(record, SchemaRecord) else self.channels
+        value = record.name if isinstance(record, SchemaRecord) else record
+        known = table.get(record.id)
+        key = (type(record).__name__, record.id)
+        if known is None or known == value:
+            table[record.id] = value
+        elif key in self.from_summary:
+            self.from_summary.discard(key)
+            table[record.id] = value
+            self.report.errors.append(
+                f'{self.file}: {key[0]} {record.id} differs between the summary and the data '
+                f'section (one is damaged); using the data section\'s')
+        else:
+            self.report.errors.append(
+                f'{self.file}: {key[0]} {record.id} defined twice, differently; the first '
+                f'definition is kept')
+
+    def _lose(self, lost: LostRange) -> None:
+        self.report.losses.append(BagLoss(self.file, lost.start, lost.end, lost.kind,
+                                          lost.reason, lost.messages))
+        count = 'an unknown number of' if lost.messages is None else str(lost.messages)
+        what = 'chunk' if lost.kind == 'chunk' else 'bytes'
+        self.report.errors.append(
+            f'{self.file}: skipped {what} at bytes {lost.start}-{lost.end} of '
+            f'{self.file.stat().st_size} ({lost.end - lost.start} bytes): {lost.reason}; '
+            f'{count} messages lost'
+        )
 
     def messages(self) -> Iterator[BagMessage]:
-        good_end = 0  # every chunk starting before this offset has been yielded in full
         with self.file.open('rb') as stream:
-            records = StreamReader(stream, validate_crcs=True).records
-            while True:
-                try:
-                    record = next(records)
-                except StopIteration:
-                    return
-                except _DAMAGE_ERRORS as error:
-                    damage_at = stream.tell()
-                    reason = f'{type(error).__name__}: {error}'
-                    break
-                message = self._handle(record)
-                if message is not None:
-                    good_end = stream.tell()
-                    yield message
-        size = self.file.stat().st_size
-        before = self.recovered
-        text = (
-            f'{self.file}: damaged or truncated near byte {damage_at} of {size} '
-            f'({reason}); {before} messages read before the damage'
-        )
-        summary = _summary(self.file)
-        if summary is None or not summary.chunk_indexes:
-            self.report.errors.append(text + '; no readable summary, the rest is lost')
-            return
-        # The summary at the end is intact: resume at every chunk after the last good one.
-        for schema in summary.schemas.values():
-            self.schemas.setdefault(schema.id, schema.name)
-        for channel in summary.channels.values():
-            self._handle(channel)
-        bad_chunks = 0
-        for index in sorted(summary.chunk_indexes, key=lambda item: item.chunk_start_offset):
-            if index.chunk_start_offset < good_end:
-                continue
-            with self.file.open('rb') as stream:
-                stream.seek(index.chunk_start_offset)
-                chunk_bytes = stream.read(index.chunk_length)
-            try:
-                if chunk_bytes[0] != Opcode.CHUNK:
-                    raise McapError('chunk index points at a non-chunk record')
-                (length,) = struct.unpack_from('<Q', chunk_bytes, 1)
-                chunk = Chunk.read(ReadDataStream(io.BytesIO(chunk_bytes[9 : 9 + length])))
-                decoded = [
-                    self._handle(record) for record in breakup_chunk(chunk, validate_crc=True)
-                ]
-            except _DAMAGE_ERRORS:
-                bad_chunks += 1
-                continue
-            yield from (message for message in decoded if message is not None)
-        self.report.errors.append(
-            text + f'; resumed from the summary: {bad_chunks} damaged chunk(s) skipped, '
-            f'{self.recovered - before} messages recovered after the damage'
-        )
+            reader = RecoveringReader(stream, self.file.stat().st_size)
+            if reader.summary is not None:
+                for record in reader.summary.schemas + reader.summary.channels:
+                    self._define(record)
+                    self.from_summary.add((type(record).__name__, record.id))
+            for item in reader.records():
+                if isinstance(item, MessageRecord):
+                    message = self._message(item)
+                    if message is not None:
+                        yield message
+                elif isinstance(item, (SchemaRecord, ChannelRecord)):
+                    self._define(item)
+                elif isinstance(item, LostRange):
+                    self._lose(item)
+                elif isinstance(item, Note):
+                    self.report.errors.append(f'{self.file}: {item.text}')
+        for channel_id, count in sorted(self.unknown_channels.items()):
+            self.report.losses.append(BagLoss(
+                self.file, None, None, 'unknown channel',
+                f'messages on channel {channel_id}, defined nowhere readable', count))
+            self.report.errors.append(
+                f'{self.file}: {count} messages on unknown channel {channel_id} skipped')
 
 
 def read_bag(
@@ -246,8 +271,9 @@ def read_bag(
     Yields
     ------
     BagMessage
-        Every intact message. Reading stops at the first damaged record of a file and
-        continues with the next file of the bag.
+        Every intact message, in file order (per file, then file after file), each once.
+        Damage is skipped as described in :mod:`forte_driver.mcap_recovery` and listed
+        in ``report``.
 
     Raises
     ------
@@ -266,7 +292,7 @@ def read_bag(
         wanted = frozenset(names)
     for file in bag_files(path):
         with file.open('rb') as stream:
-            if stream.read(8)[:5] != b'\x89MCAP':
+            if stream.read(len(MAGIC))[:5] != MAGIC[:5]:
                 raise BagError(f'{file} is not an MCAP file (bad magic bytes)')
         report.files.append(file)
         yield from _FileReader(file, wanted, report).messages()
