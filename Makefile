@@ -7,7 +7,7 @@ PYTEST_ARGS ?=
 # LAUNCH_KIT=DIR: also install the launch stack and ros2 CLI from a launch kit (README)
 LAUNCH_KIT ?=
 
-.PHONY: setup test test-python test-firmware lint demo bench evaluate clean
+.PHONY: setup test test-python test-firmware lint demo bench faults evaluate clean
 
 ## setup: venv (pinned ROS 2 Jazzy wheels unless ROS is sourced), colcon build into install/ (idempotent)
 setup:
@@ -37,6 +37,10 @@ demo: setup
 ## bench: speed and memory benchmarks, each against a baseline measured in the same run
 bench: setup
 	@$(ENV) && cd $(ROOT) && for b in benchmarks/bench_*.py; do echo "=== $$b"; python $$b; done
+
+## faults: serial fault-injection streams, 1e7 scans (FAULTS_ARGS=--quick for 1e6), docs/serial_driver.md
+faults: setup
+	@$(ENV) && cd $(ROOT) && python benchmarks/bench_fault_streams.py $(FAULTS_ARGS)
 
 ## evaluate: the paper's evaluation reproduced in simulation (EVAL_ARGS=--quick for a subset)
 evaluate: setup

@@ -16,9 +16,10 @@ Main pieces
 - :class:`FrameDecoder`: resynchronising stream decoder of binary frames, counts corrupt
   frames and discarded bytes, emits :data:`CORRUPT` markers in stream order.
 - :class:`AsciiLineDecoder`: strict parser of the paper authors' ASCII lines.
-- :class:`SequenceTracker`: unwraps 32-bit sequence numbers and counts gaps.
-- :class:`StreamAssembler`: turns decoded samples into gap-free batches (never invents a
-  sample; a batch ends at every gap, corrupt frame and session change).
+- :class:`SequenceTracker`, :class:`StreamAssembler`, :class:`Batch`: defined in
+  :mod:`forte_driver.stream` (plausibility, duplicates, reordering, drops, gap-free
+  batches) and re-exported here, so ``from forte_driver.protocol import StreamAssembler``
+  keeps working.
 - Encoders for every frame type (used by the emulated device and the tests).
 """
 from __future__ import annotations
@@ -29,8 +30,6 @@ import struct
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import NamedTuple
-
-import numpy as np
 
 SYNC0 = 0xA5
 SYNC1 = 0x5A
@@ -343,7 +342,8 @@ class AsciiLineDecoder:
 
     A line is accepted only if it has exactly the keys T1..T6 in this order and six finite
     values in [-1, 1]; anything else is a corrupt line (counted, dropped, never replaced by
-    a previous sample). Lines longer than ``max_line_bytes`` are corrupt. After
+    a previous sample). Lines longer than ``max_line_bytes`` are corrupt (counted once,
+    discarded whole, wherever the reads split them). After
     :meth:`reset` (connect) the stream may start in the middle of a line: if the first
     line is malformed it is discarded without being counted as corrupt.
 
@@ -360,6 +360,7 @@ class AsciiLineDecoder:
     def __init__(self, max_line_bytes: int = 256) -> None:
         self._buffer = bytearray()
         self._skip_first_line = True
+        self._discarding = False  # inside an overlong line: drop bytes up to its newline
         self.max_line_bytes = max_line_bytes
         self.lines = 0
         self.corrupt_lines = 0
@@ -369,6 +370,7 @@ class AsciiLineDecoder:
         """Forget a partial line; the next bytes may start mid-line."""
         self._buffer.clear()
         self._skip_first_line = True
+        self._discarding = False
 
     @staticmethod
     def parse_line(line: bytes) -> tuple[float, ...] | None:
@@ -391,7 +393,12 @@ class AsciiLineDecoder:
         return tuple(values)
 
     def feed(self, data: bytes | bytearray | memoryview) -> list[AsciiSample | CorruptFrame]:
-        """Decode ``data``; returns samples and :data:`CORRUPT_LINE` markers in order."""
+        """Decode ``data``; returns samples and :data:`CORRUPT_LINE` markers in order.
+
+        The result does not depend on how the stream is split into calls: a line longer
+        than ``max_line_bytes`` is rejected once, as soon as it is known to be too long,
+        and the rest of it up to its newline is discarded unparsed.
+        """
         buffer = self._buffer
         buffer += data
         out: list[AsciiSample | CorruptFrame] = []
@@ -402,28 +409,40 @@ class AsciiLineDecoder:
                 break
             line = bytes(buffer[start:end])
             start = end + 1
-            first_line = self._skip_first_line
-            self._skip_first_line = False
-            values = self.parse_line(line) if len(line) <= self.max_line_bytes else None
-            if values is None and first_line:
+            if self._discarding:  # the tail of an overlong line, already counted
+                self._discarding = False
                 self.discarded_bytes += len(line) + 1
-            elif values is None:
-                self.corrupt_lines += 1
-                self.discarded_bytes += len(line) + 1
-                out.append(CORRUPT_LINE)
-            else:
-                self.lines += 1
-                out.append(AsciiSample(values))
+                continue
+            self._take_line(line, out)
         del buffer[:start]
-        if len(buffer) > self.max_line_bytes:
-            # a line without newline that is already too long: corrupt, drop it now
+        if self._discarding:
+            self.discarded_bytes += len(buffer)
+            buffer.clear()
+        elif len(buffer) > self.max_line_bytes:
+            # already too long without its newline: reject it now, discard up to '\n'
             if not self._skip_first_line:
                 self.corrupt_lines += 1
                 out.append(CORRUPT_LINE)
-            self._skip_first_line = True  # the rest of this line is discarded up to '\n'
+            self._skip_first_line = False
+            self._discarding = True
             self.discarded_bytes += len(buffer)
             buffer.clear()
         return out
+
+    def _take_line(self, line: bytes, out: list[AsciiSample | CorruptFrame]) -> None:
+        """Judge one complete line (without its newline)."""
+        first_line = self._skip_first_line
+        self._skip_first_line = False
+        values = self.parse_line(line) if len(line) <= self.max_line_bytes else None
+        if values is None and first_line:
+            self.discarded_bytes += len(line) + 1
+        elif values is None:
+            self.corrupt_lines += 1
+            self.discarded_bytes += len(line) + 1
+            out.append(CORRUPT_LINE)
+        else:
+            self.lines += 1
+            out.append(AsciiSample(values))
 
 
 def format_ascii_line(values: tuple[float, ...] | list[float]) -> bytes:
@@ -453,200 +472,14 @@ def normalise_adc_code(code: int, zero_code: int, half_span_code: int) -> tuple[
     return value, False
 
 
-class SequenceTracker:
-    """Unwrap 32-bit device sequence numbers and count the frames lost between them.
-
-    The unwrapped sequence is monotonic for the life of the tracker. In the first session
-    it equals the device sequence; a later session (START acknowledged, reconnect, or the
-    device sequence jumping backwards, i.e. a device restart) continues at the previous
-    unwrapped value + 1 (+ the device sequence of its first frame if the session is known
-    to start at 0). Nothing is counted as dropped across a session boundary except, for a
-    session started by an acknowledged START (the device restarts at sequence 0), the
-    frames before the first one received.
-
-    Attributes
-    ----------
-    dropped_frames : int
-        Sequence numbers skipped [count].
-    sessions : int
-        Sessions seen (1 after the first frame) [count].
-    sequence_resets : int
-        Sessions started because the sequence jumped backwards [count].
-    """
-
-    def __init__(self) -> None:
-        self.dropped_frames = 0
-        self.sessions = 0
-        self.sequence_resets = 0
-        self._last_device: int | None = None
-        self._last_unwrapped: int | None = None
-        self._new_session = True
-        self._from_zero = False
-
-    def start_session(self, from_zero: bool = False) -> None:
-        """The next frame starts a new session.
-
-        Parameters
-        ----------
-        from_zero : bool
-            The device restarted its sequence at 0 (START acknowledged): a first frame with
-            sequence k means k frames were lost.
-        """
-        self._new_session = True
-        self._from_zero = from_zero
-
-    def update(self, sequence: int) -> tuple[int, int, bool]:
-        """Account for one received sequence number.
-
-        Returns
-        -------
-        tuple of (int, int, bool)
-            Unwrapped sequence, frames lost right before it, whether it starts a session.
-        """
-        new_session = self._new_session or self._last_device is None
-        gap = 0
-        if not new_session:
-            gap = (sequence - self._last_device - 1) % SEQUENCE_MODULUS
-            if gap >= SEQUENCE_MODULUS // 2:  # backwards or repeated: the device restarted
-                self.sequence_resets += 1
-                new_session, gap = True, 0
-        if new_session:
-            self.sessions += 1
-            from_zero = self._from_zero and sequence < SEQUENCE_MODULUS // 2
-            gap = sequence if from_zero else 0
-            if self._last_unwrapped is None:
-                unwrapped = sequence
-            else:
-                unwrapped = self._last_unwrapped + 1 + gap
-            self._new_session = self._from_zero = False
-        else:
-            unwrapped = self._last_unwrapped + 1 + gap
-        self._last_device = sequence
-        self._last_unwrapped = unwrapped
-        self.dropped_frames += gap
-        return unwrapped, gap, new_session
+#: Names defined in :mod:`forte_driver.stream` and re-exported here (imported lazily:
+#: ``stream`` imports this module).
+_STREAM_NAMES = ('Batch', 'SequenceEvent', 'SequenceTracker', 'StreamAssembler')
 
 
-@dataclass
-class Batch:
-    """Consecutive samples without any gap.
-
-    Attributes
-    ----------
-    first_sequence : int
-        Unwrapped sequence of the first row.
-    device_time_us : int
-        Device time of the first row [us] (binary) or the host-derived time of the first
-        row [us] (ASCII, see the caveat in docs/serial_driver.md).
-    values : numpy.ndarray
-        Shape (n, 6), float64, normalised readings.
-    """
-
-    first_sequence: int
-    device_time_us: int
-    values: np.ndarray
-
-
-class StreamAssembler:
-    """Build gap-free batches from decoded samples; never invents a sample.
-
-    A batch is emitted when it holds ``batch_size`` rows, and ended early at every
-    sequence gap, corrupt-frame marker, new session, or :meth:`flush`.
-
-    Parameters
-    ----------
-    batch_size : int
-        Rows per full batch.
-
-    Attributes
-    ----------
-    tracker : SequenceTracker
-        Drop accounting (binary mode).
-    samples : int
-        Samples placed into batches [count].
-    corrupt_frames : int
-        Corrupt markers seen [count].
-    device_overruns : int
-        Samples the device reported it dropped itself (host too slow) [count].
-    """
-
-    def __init__(self, batch_size: int) -> None:
-        if batch_size < 1:
-            raise ValueError(f'batch_size must be >= 1, got {batch_size}')
-        self.batch_size = batch_size
-        self.tracker = SequenceTracker()
-        self.samples = 0
-        self.corrupt_frames = 0
-        self.device_overruns = 0
-        self._last_overruns: int | None = None
-        self._rows: list[tuple[float, ...]] = []
-        self._first_sequence = 0
-        self._first_time_us = 0
-        self._ascii_sequence = 0
-        self._ready: list[Batch] = []
-
-    def start_session(self, from_zero: bool = False) -> None:
-        """End the current batch; the next sample begins a new device session
-        (``from_zero``: see :meth:`SequenceTracker.start_session`)."""
-        self._end_batch()
-        self.tracker.start_session(from_zero)
-        self._last_overruns = None
-
-    def _end_batch(self) -> None:
-        if self._rows:
-            self._ready.append(Batch(self._first_sequence, self._first_time_us,
-                                     np.array(self._rows, dtype=np.float64)))
-            self._rows = []
-
-    def _append(self, sequence: int, time_us: int, values: tuple[float, ...]) -> None:
-        if not self._rows:
-            self._first_sequence = sequence
-            self._first_time_us = time_us
-        self._rows.append(values)
-        self.samples += 1
-        if len(self._rows) >= self.batch_size:
-            self._end_batch()
-
-    def add_sample(self, sample: Sample) -> None:
-        """Add one binary sample (in stream order)."""
-        unwrapped, gap, new_session = self.tracker.update(sample.sequence)
-        if gap or new_session:
-            self._end_batch()
-        if new_session:
-            self._last_overruns = None
-        if self._last_overruns is not None:
-            self.device_overruns += (sample.overruns - self._last_overruns) % OVERRUN_MODULUS
-        else:
-            self.device_overruns += sample.overruns if new_session else 0
-        self._last_overruns = sample.overruns
-        self._append(unwrapped, sample.time_us,
-                     tuple(v / COUNTS_PER_FULL_SCALE for v in sample.values))
-
-    def add_ascii_sample(self, sample: AsciiSample, time_us: int) -> None:
-        """Add one ASCII sample with its host-derived time [us]; sequence is host-counted."""
-        self._append(self._ascii_sequence, time_us, sample.values)
-        self._ascii_sequence += 1
-
-    def add_corrupt(self) -> None:
-        """A corrupt frame or line was seen: end the batch."""
-        self.corrupt_frames += 1
-        self._end_batch()
-
-    def flush(self) -> None:
-        """End the current (partial) batch now."""
-        self._end_batch()
-
-    def take_batches(self) -> list[Batch]:
-        """Completed batches since the last call, oldest first."""
-        ready, self._ready = self._ready, []
-        return ready
-
-    @property
-    def dropped_frames(self) -> int:
-        """Frames lost by sequence gaps (device overruns included) [count]."""
-        return self.tracker.dropped_frames
-
-    @property
-    def pending_rows(self) -> int:
-        """Rows of the batch being filled."""
-        return len(self._rows)
+def __getattr__(name: str):
+    """Re-export the stream accounting classes of :mod:`forte_driver.stream`."""
+    if name in _STREAM_NAMES:
+        from forte_driver import stream
+        return getattr(stream, name)
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')

@@ -221,17 +221,23 @@ def test_random_garbage_never_yields_a_frame_and_resynchronises():
     assert decoder.discarded_bytes >= len(garbage) - protocol.SAMPLE_FRAME_SIZE
 
 
-def test_sequence_tracker_wraps_counts_gaps_and_detects_restart():
+def test_sequence_tracker_wraps_counts_gaps_and_restarts_only_when_told():
+    # changed with the stream rules (docs/serial_driver.md): a backwards sequence number
+    # is no longer taken as a device restart (it is a late, duplicate or stale frame);
+    # restarts come from evidence the caller has (START acknowledged, first-scan flag)
     tracker = SequenceTracker()
     assert tracker.update(0xFFFFFFFE) == (0xFFFFFFFE, 0, True)
     assert tracker.update(0xFFFFFFFF) == (0xFFFFFFFF, 0, False)
     assert tracker.update(0) == (0x100000000, 0, False)        # wrap, no gap
     assert tracker.update(5) == (0x100000005, 4, False)        # 1..4 lost
     assert tracker.dropped_frames == 4
-    assert tracker.update(3) == (0x100000006, 0, True)         # backwards: device restarted
+    assert tracker.update(3) == (0x100000003, 0, False)        # backwards: not a restart
+    assert (tracker.stale_frames, tracker.sequence_resets) == (1, 0)
+    tracker.restart()                                           # evidence of a restart
+    assert tracker.update(100) == (0x100000006, 0, True)       # new session: nothing counted
     assert tracker.sequence_resets == 1
     tracker.start_session()
-    assert tracker.update(100) == (0x100000007, 0, True)       # new session: nothing counted
+    assert tracker.update(100) == (0x100000007, 0, True)
     assert tracker.dropped_frames == 4
     tracker.start_session(from_zero=True)                       # START acknowledged
     assert tracker.update(2) == (0x100000007 + 3, 2, True)     # scans 0 and 1 were lost
@@ -267,12 +273,16 @@ def test_assembler_never_spans_a_gap_and_never_invents():
 
 
 def test_assembler_counts_device_overruns_modulo_16_bits():
+    # changed with the stream rules: the first frame of a session is counted once a
+    # second frame confirms it (a lone frame never anchors a session)
     assembler = StreamAssembler(batch_size=20)
     assembler.add_sample(Sample(0, 0, (0,) * 6, overruns=65530))
     assembler.add_sample(Sample(10, 0, (0,) * 6, overruns=3))   # 9 more, wrapped
     assert assembler.device_overruns == 65530 + 9
     assembler.start_session()
     assembler.add_sample(Sample(0, 0, (0,) * 6, overruns=2))
+    assert assembler.device_overruns == 65530 + 9               # not confirmed yet
+    assembler.add_sample(Sample(1, 0, (0,) * 6, overruns=2))
     assert assembler.device_overruns == 65530 + 9 + 2
 
 
@@ -325,3 +335,56 @@ def test_ascii_overlong_line_is_corrupt_and_bounded():
 def test_ascii_format_round_trips_exactly():
     values = (0.0009765625, -0.123456789, 1.0, -1.0, 0.0, 1 / 3)
     assert AsciiLineDecoder.parse_line(protocol.format_ascii_line(values)[:-1]) == values
+
+
+def ascii_stream(seed: int) -> bytes:
+    """Valid, malformed and overlong lines; some overlong lines end in a valid line."""
+    rng = random.Random(seed)
+    good = [protocol.format_ascii_line([rng.uniform(-1, 1) for _ in range(6)])
+            for _ in range(5)]
+    parts = [good[0][9:]]  # starts mid-line, as after connecting
+    for _ in range(60):
+        kind = rng.randrange(5)
+        if kind == 0:
+            parts.append(rng.choice(good))
+        elif kind == 1:
+            parts.append(b'T1:0.1,T2:zz,T3:0.3\n')
+        elif kind == 2:  # overlong, its valid tail must not be taken
+            parts.append(b'x' * rng.randint(120, 500) + rng.choice(good))
+        elif kind == 3:
+            parts.append(rng.choice(good)[:-1] + b'\r\n')
+        else:
+            parts.append(b'y' * rng.randint(250, 262) + b'\n')  # around the limit
+    return b''.join(parts)
+
+
+def decode_split(data: bytes, cuts: list[int]) -> tuple[list, tuple[int, int, int]]:
+    decoder = AsciiLineDecoder(max_line_bytes=256)
+    items, previous = [], 0
+    for cut in sorted(cuts) + [len(data)]:
+        items += decoder.feed(data[previous:cut])
+        previous = cut
+    return items, (decoder.lines, decoder.corrupt_lines, decoder.discarded_bytes)
+
+
+@pytest.mark.parametrize('seed', range(4))
+def test_ascii_result_does_not_depend_on_where_reads_split_the_stream(seed):
+    data = ascii_stream(seed)
+    whole, counters = decode_split(data, [])
+    assert counters[1] > 10 and counters[0] > 10
+    rng = random.Random(seed)
+    for _ in range(200):
+        cuts = [rng.randrange(len(data)) for _ in range(rng.randint(1, 40))]
+        assert decode_split(data, cuts) == (whole, counters)
+    assert decode_split(data, list(range(len(data)))) == (whole, counters)  # byte by byte
+
+
+def test_ascii_overlong_line_with_a_valid_tail_is_discarded_whole():
+    line = protocol.format_ascii_line([0.5] * 6)
+    data = line + b'x' * 300 + line + line
+    for cut in (len(line) + 150, len(line) + 255, len(line) + 257, len(line) + 300):
+        for cuts in ([], [cut]):
+            items, counters = decode_split(data, cuts)
+            assert items == [AsciiSample((0.5,) * 6), protocol.CORRUPT_LINE,
+                             AsciiSample((0.5,) * 6)]
+            assert counters == (2, 1, 300 + len(line))
