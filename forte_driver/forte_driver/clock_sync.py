@@ -22,6 +22,12 @@ smallest latency observed in the window (the irreducible USB latency cannot be m
 from one clock pair; it is typically 0.1-1 ms and is reported, not removed).
 A device clock jump (new device, restart) further than ``jump_tolerance_s`` from the
 model resets the estimator.
+
+Absurd inputs never raise: an observation whose device time or host time lies outside
+:data:`MAX_DEVICE_TIME_US` / :data:`MAX_HOST_TIME_NS` (e.g. a corrupt frame whose CRC
+matched by chance, device time ~5e17 us) is rejected and counted in
+``rejected_observations``; :meth:`ClockSync.to_host_ns` returns ``None`` for a device time
+it cannot map to a representable host time (signed 64-bit nanoseconds, >= 0).
 """
 from __future__ import annotations
 
@@ -31,6 +37,21 @@ from dataclasses import dataclass
 import numpy as np
 
 NANOSECONDS_PER_MICROSECOND = 1000
+#: Largest device time accepted [us]: 2**62 ns, i.e. 146 years of device uptime.
+MAX_DEVICE_TIME_US = (1 << 62) // NANOSECONDS_PER_MICROSECOND
+#: Host times [ns] must fit a signed 64-bit integer (ROS time, ``builtin_interfaces/Time``).
+MAX_HOST_TIME_NS = (1 << 63) - 1
+
+
+def is_valid_device_time(device_time_us: int) -> bool:
+    """True if ``device_time_us`` [us] is an integer in [0, MAX_DEVICE_TIME_US]."""
+    return (isinstance(device_time_us, (int, np.integer))
+            and 0 <= device_time_us <= MAX_DEVICE_TIME_US)
+
+
+def is_valid_host_time(host_time_ns: int) -> bool:
+    """True if ``host_time_ns`` [ns] is an integer in [0, MAX_HOST_TIME_NS]."""
+    return isinstance(host_time_ns, (int, np.integer)) and 0 <= host_time_ns <= MAX_HOST_TIME_NS
 
 
 @dataclass(frozen=True)
@@ -58,7 +79,8 @@ class ClockModel:
     drift: float
 
     def to_host_ns(self, device_time_us: int) -> int:
-        """Host time [ns] of a device time [us]."""
+        """Host time [ns] of a device time [us] (unbounded Python int, may be negative or
+        beyond 64 bits for absurd inputs: see :meth:`ClockSync.to_host_ns`)."""
         elapsed_ns = (device_time_us - self.reference_device_us) * NANOSECONDS_PER_MICROSECOND
         return self.reference_host_ns + int(round(self.offset_ns + (1.0 + self.drift) * elapsed_ns))
 
@@ -78,6 +100,14 @@ class ClockSync:
         Drift estimates are clipped to +-max_drift (crystals: < 1e-4).
     jump_tolerance_s : float
         Observations further than this from the model reset the estimator [s].
+
+    Attributes
+    ----------
+    resets : int
+        Estimator resets caused by device clock jumps [count].
+    rejected_observations : int
+        Observations ignored because a time was outside the representable range
+        (:func:`is_valid_device_time`, :func:`is_valid_host_time`) [count].
     """
 
     def __init__(self, window_s: float = 20.0, bin_s: float = 0.5,
@@ -91,6 +121,7 @@ class ClockSync:
         self.max_drift = float(max_drift)
         self.jump_tolerance_ns = int(jump_tolerance_s * 1e9)
         self.resets = 0
+        self.rejected_observations = 0
         self._bins: OrderedDict[int, tuple[int, int]] = OrderedDict()
         self._model: ClockModel | None = None
         self._last_latency_ns: float | None = None
@@ -118,9 +149,19 @@ class ClockSync:
         """Latency of the last observation above the lower envelope [s]."""
         return None if self._last_latency_ns is None else self._last_latency_ns * 1e-9
 
-    def add(self, device_time_us: int, host_time_ns: int) -> None:
+    def add(self, device_time_us: int, host_time_ns: int) -> bool:
         """Add one observation: a sample with device time ``device_time_us`` [us] was
-        received at host time ``host_time_ns`` [ns]."""
+        received at host time ``host_time_ns`` [ns].
+
+        Returns
+        -------
+        bool
+            False if the observation was rejected (a time outside the representable
+            range; counted in ``rejected_observations``, the model is unchanged).
+        """
+        if not (is_valid_device_time(device_time_us) and is_valid_host_time(host_time_ns)):
+            self.rejected_observations += 1
+            return False
         if self._model is not None:
             error = host_time_ns - self._model.to_host_ns(device_time_us)
             # received before it was sampled: the device clock jumped forward. Late by more
@@ -141,9 +182,10 @@ class ClockSync:
             self._bins[key] = (device_time_us, host_time_ns)
         else:
             self._record_latency(device_time_us, host_time_ns)
-            return
+            return True
         self._fit()
         self._record_latency(device_time_us, host_time_ns)
+        return True
 
     def _record_latency(self, device_time_us: int, host_time_ns: int) -> None:
         if self._model is not None:
@@ -164,5 +206,9 @@ class ClockSync:
         self._model = ClockModel(reference_device_us, reference_host_ns, offset, drift)
 
     def to_host_ns(self, device_time_us: int) -> int | None:
-        """Host time [ns] of a device time [us], ``None`` before the first observation."""
-        return None if self._model is None else self._model.to_host_ns(device_time_us)
+        """Host time [ns] of a device time [us]; ``None`` before the first observation and
+        for a device time that cannot be mapped to a host time in [0, 2**63) ns."""
+        if self._model is None or not is_valid_device_time(device_time_us):
+            return None
+        host_ns = self._model.to_host_ns(device_time_us)
+        return host_ns if is_valid_host_time(host_ns) else None

@@ -12,10 +12,14 @@ on the robot. :meth:`EmulatedSensor.unplug` closes the pty and removes the symli
 symlink.
 
 Faults are injected per transmitted scan with seeded probabilities (:class:`FaultPlan`)
-or on demand (:meth:`EmulatedSensor.inject`). Every fault is logged with its expected
+or on demand (:meth:`EmulatedSensor.inject`); their kinds and bookkeeping are in
+:mod:`forte_driver.emulated_faults` (line faults: garbage, truncation, bit flips, gaps,
+bursts; binary-only sequence faults: duplicated, reordered and CRC-valid implausible
+frames, device restarts without a host START). Every fault is logged with its expected
 effect on a decoder that follows docs/firmware.md, so tests can demand exact counts:
-:attr:`EmulatedSensor.expected_dropped`, :attr:`EmulatedSensor.expected_corrupt`, and the
-truth of every scan delivered intact in :attr:`EmulatedSensor.delivered`.
+:attr:`EmulatedSensor.log` (a :class:`FaultLog`: expected dropped, corrupt, implausible,
+duplicate and late frames, device restarts), and the truth of every scan delivered intact
+in :attr:`EmulatedSensor.delivered`.
 
 Command line: ``forte_emulated_sensor --link /tmp/forte_sensor`` (see ``--help``).
 """
@@ -30,53 +34,17 @@ import threading
 import time
 import tty
 from collections import deque
-from dataclasses import dataclass, field
 
 from forte_driver import protocol
+from forte_driver.emulated_faults import (
+    BINARY_ONLY_FAULTS,
+    FAULTS,
+    IMPLAUSIBLE_KINDS,
+    FaultLog,
+    FaultPlan,
+    implausible_frame,
+)
 from forte_driver.protocol import Ack, Command, CommandFrame, Info, Sample, Status
-
-#: Faults understood by :meth:`EmulatedSensor.inject` and :class:`FaultPlan`.
-FAULTS = ('garbage', 'random_garbage', 'truncate', 'bitflip', 'gap', 'burst')
-
-
-@dataclass
-class FaultPlan:
-    """Probability per transmitted scan of each fault (binary and ASCII modes).
-
-    Attributes
-    ----------
-    garbage : float
-        Binary: insert 1..40 random bytes without 0xA5, 0x5A, 0x01 before the scan (they
-        can never complete a frame signature, so counts stay exact). ASCII: insert one
-        line of random bytes (one corrupt line).
-    random_garbage : float
-        Insert 1..40 fully random bytes (may form false candidates: counts approximate).
-    truncate : float
-        Send only the first 1..n-2 bytes of the scan's frame (or line).
-    bitflip : float
-        Flip one random bit of the scan's frame (binary) / replace a key (ASCII).
-    gap : float
-        Do not send the scan at all.
-    burst : float
-        Hold the output for 20 ms, then send everything at once.
-    """
-
-    garbage: float = 0.0
-    random_garbage: float = 0.0
-    truncate: float = 0.0
-    bitflip: float = 0.0
-    gap: float = 0.0
-    burst: float = 0.0
-
-
-@dataclass
-class FaultLog:
-    """Injected faults and their exact expected effect on the host decoder."""
-
-    counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(FAULTS, 0))
-    dropped: int = 0      # scans the host can never receive (sequence gaps)
-    corrupt: int = 0      # candidates/lines the host must reject
-    exact: bool = True    # False once random_garbage made the corrupt count approximate
 
 
 def default_signal(sequence: int, time_us: int) -> tuple[int, ...]:
@@ -125,6 +93,9 @@ class EmulatedSensor:
                  stream_on_power_up: bool = True) -> None:
         if protocol_name not in ('binary', 'ascii'):
             raise ValueError(f"protocol_name must be 'binary' or 'ascii', not {protocol_name!r}")
+        if protocol_name == 'ascii' and any(getattr(faults, name, 0.0)
+                                            for name in BINARY_ONLY_FAULTS):
+            raise ValueError(f'faults {BINARY_ONLY_FAULTS} exist only in binary mode')
         self.link_path = link_path
         self.protocol_name = protocol_name
         self.faults = faults or FaultPlan()
@@ -143,7 +114,7 @@ class EmulatedSensor:
         self._slave: int | None = None
         self._thread: threading.Thread | None = None
         self._running = False
-        self._pending_faults: deque[tuple[str, int]] = deque()
+        self._pending_faults: deque[tuple[str | None, str | None]] = deque()
         self.log = FaultLog()
         #: (unwrapped session index, sequence, device time [us], values) of scans sent intact
         self.delivered: list[tuple[int, int, int, tuple]] = []
@@ -169,6 +140,8 @@ class EmulatedSensor:
         self._out = bytearray()
         self._hold_until_ns = 0
         self._decoder = protocol.FrameDecoder()
+        self._held: tuple[bytes, tuple] | None = None  # reordered frame, sent after the next
+        self._restart_pending = False
 
     def set_ascii_streaming(self, streaming: bool) -> None:
         """ASCII mode: start or stop the line stream (the legacy firmware has no commands)."""
@@ -266,24 +239,44 @@ class EmulatedSensor:
 
     # ---- faults -------------------------------------------------------------------------
 
-    def inject(self, fault: str, count: int = 1) -> None:
-        """Apply ``fault`` to the next ``count`` transmitted scans (one each)."""
+    def inject(self, fault: str, count: int = 1, kind: str | None = None,
+               after: int = 0) -> None:
+        """Apply ``fault`` to ``count`` transmitted scans (one each), after ``after``
+        clean scans (counted from the end of the faults already queued); ``kind`` selects
+        the implausibility of an ``implausible`` fault (default: drawn)."""
         if fault not in FAULTS:
             raise ValueError(f'unknown fault {fault!r}; known: {FAULTS}')
+        if fault in BINARY_ONLY_FAULTS and self.protocol_name != 'binary':
+            raise ValueError(f'fault {fault!r} exists only in binary mode')
+        if kind is not None and (fault != 'implausible' or kind not in IMPLAUSIBLE_KINDS):
+            raise ValueError(f'kind applies to implausible faults only: {IMPLAUSIBLE_KINDS}')
         with self._lock:
-            self._pending_faults.extend([(fault, 0)] * count)
+            self._pending_faults.extend([(None, None)] * after + [(fault, kind)] * count)
 
-    def _choose_fault(self) -> str | None:
+    def _choose_fault(self) -> tuple[str | None, str | None]:
         if self._pending_faults:
-            return self._pending_faults.popleft()[0]
+            return self._pending_faults.popleft()
         plan = self.faults
         draw = self._random.random()
         for name in FAULTS:
             probability = getattr(plan, name)
             if draw < probability:
-                return name
+                return name, None
             draw -= probability
-        return None
+        return None, None
+
+    def _restart_device(self) -> None:
+        """Watchdog/brown-out reset while streaming: clock and sequence start again and
+        the device resumes streaming by itself (no host START)."""
+        self.log.restarts += 1
+        self.sessions += 1
+        self._restart_pending = False
+        self._host_origin_ns = time.monotonic_ns()
+        self.clock_offset_us = 1_000_000  # 1 s after boot
+        self._sequence = 0
+        self._overruns = self._overruns_reported = 0
+        self._session_start = True
+        self._next_scan_us = None
 
     def _garbage(self, exclude: tuple[int, ...]) -> bytes:
         allowed = [b for b in range(256) if b not in exclude]
@@ -334,6 +327,7 @@ class EmulatedSensor:
         elif command.command == Command.STOP:
             value = self._sequence
             self._streaming = False
+            self._release_held()
         elif command.command == Command.IDENTIFY:
             send_info = True
         elif command.command == Command.SET_RATE:
@@ -396,12 +390,17 @@ class EmulatedSensor:
         # wait forever for bytes that never come and could not be counted
         tail = self.max_scans is not None and self._transmitted >= self.max_scans - 3
         self._transmitted += 1
-        fault = None if merging or tail else self._choose_fault()
+        # the scan after a reordered one, and scans before a pending restart, go out clean
+        clean = merging or tail or self._held is not None or self._restart_pending
+        fault, kind = (None, None) if clean else self._choose_fault()
         log = self.log
         if fault is not None:
             log.counts[fault] += 1
         truth = (self.sessions, sample.sequence, sample.time_us,
                  tuple(v / protocol.COUNTS_PER_FULL_SCALE for v in sample.values))
+        if fault in BINARY_ONLY_FAULTS:
+            self._transmit_sequence_fault(fault, kind, sample, data, truth)
+            return
         if fault == 'garbage' and self.protocol_name == 'binary':
             self._out += self._garbage((0xA5, 0x5A, 0x01))
         elif fault == 'garbage':
@@ -456,12 +455,44 @@ class EmulatedSensor:
             return
         self._out += data
         self.delivered.append(truth)
+        self._release_held()
+
+    def _transmit_sequence_fault(self, fault: str, kind: str | None, sample: Sample,
+                                 data: bytes, truth: tuple) -> None:
+        log = self.log
+        if fault == 'implausible':  # the scan is lost, a CRC-valid impostor takes its place
+            self._out += implausible_frame(sample, kind, self._random)
+            log.implausible += 1
+            log.corrupt += 1
+            log.dropped += 1
+            return
+        if fault == 'reorder':  # sent right after the next scan
+            self._held = (data, truth)
+            log.late += 1
+            return
+        self._out += data
+        self.delivered.append(truth)
+        if fault == 'duplicate':
+            self._out += data
+            log.duplicate += 1
+        else:  # restart: once the ring is empty (nothing lost)
+            self._restart_pending = True
+
+    def _release_held(self) -> None:
+        """Send the reordered frame (after its successor, or at STOP)."""
+        if self._held is not None:
+            data, truth = self._held
+            self._held = None
+            self._out += data
+            self.delivered.append(truth)
 
     def _flush_output(self) -> None:
         if time.monotonic_ns() < self._hold_until_ns:
             return
         while self._ring and len(self._out) < 4096:
             self._transmit(self._ring.popleft())
+        if self._restart_pending and not self._ring:
+            self._restart_device()
         if not self._out:
             return
         try:
@@ -484,6 +515,8 @@ def main(argv: list[str] | None = None) -> None:
                             help=f'probability per scan of fault {name}')
     args = parser.parse_args(argv)
     plan = FaultPlan(**{name: getattr(args, name) for name in FAULTS})
+    if args.protocol == 'ascii' and any(getattr(plan, name) for name in BINARY_ONLY_FAULTS):
+        parser.error(f'--{", --".join(BINARY_ONLY_FAULTS)} exist only with --protocol binary')
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
@@ -491,9 +524,12 @@ def main(argv: list[str] | None = None) -> None:
                         args.drift_ppm) as sensor:
         print(f'emulated FORTE sensor ({args.protocol}) at {args.link}', flush=True)
         stop.wait()
+        log = sensor.log
         print(f'scans {sensor.scans_generated}, delivered {len(sensor.delivered)}, '
-              f'faults {sensor.log.counts}, expected dropped {sensor.log.dropped}, '
-              f'expected corrupt {sensor.log.corrupt}', flush=True)
+              f'faults {log.counts}, expected dropped {log.dropped}, '
+              f'expected corrupt {log.corrupt} (implausible {log.implausible}), '
+              f'expected duplicate {log.duplicate}, expected late {log.late}, '
+              f'device restarts {log.restarts}', flush=True)
 
 
 if __name__ == '__main__':

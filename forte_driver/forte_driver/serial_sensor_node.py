@@ -16,7 +16,11 @@ Lifecycle
 
 Threads: one reader thread owns all reads (never an executor callback), decodes and
 publishes; executor callbacks only write short commands, run the supervisor and publish
-diagnostics.
+diagnostics. No exception escapes the reader thread: each step (read, decode/assemble/
+stamp, publish) is guarded, an unexpected exception is counted (``reader_errors``), logged
+(throttled) and reported as ERROR in /diagnostics for ``error_hold`` seconds, and the
+stream goes on. If the thread ends anyway, the supervisor restarts it (at most 5 times a
+minute, then it deactivates the node with ERROR): never active and silently idle.
 
 Topics: ``tactile/frames`` (forte_msgs/TactileFrames, sensor-data QoS or reliable with
 ``reliable:=true``), ``/diagnostics`` (diagnostic_msgs/DiagnosticArray).
@@ -30,13 +34,7 @@ from dataclasses import dataclass
 
 import serial
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
-    ParameterDescriptor,
-    ParameterType,
-    SetParametersResult,
-)
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.lifecycle import LifecycleState, TransitionCallbackReturn
 from rclpy.qos import (
     DurabilityPolicy,
@@ -47,24 +45,18 @@ from rclpy.qos import (
 from rclpy.time import Time
 
 from forte_driver import protocol
-from forte_driver.clock_sync import ClockSync
-from forte_driver.protocol import (
-    Ack,
-    AsciiLineDecoder,
-    AsciiSample,
-    Command,
-    CorruptFrame,
-    FrameDecoder,
-    Info,
-    Sample,
-    Status,
-    StreamAssembler,
-)
+from forte_driver.protocol import Ack, Command, Info, Status
+from forte_driver.reader_health import ERROR, WARN, ReaderHealth, diagnostics_level
+from forte_driver.sensor_stream import SensorStream, StampedBatch
+from forte_driver.serial_sensor_parameters import declare_parameters, validate_parameters
 from forte_msgs.msg import TactileFrames
 from forte_ros import ForteLifecycleNode, publish_quietly, run_node
 
 FRAMES_TOPIC = 'tactile/frames'
 DIAGNOSTICS_TOPIC = '/diagnostics'
+#: StreamAssembler counters reported in /diagnostics under their attribute names.
+ASSEMBLER_COUNTERS = ('samples', 'dropped_frames', 'corrupt_frames', 'implausible_frames',
+                      'duplicate_frames', 'late_frames', 'device_overruns', 'restarts')
 
 
 @dataclass
@@ -72,9 +64,6 @@ class _Window:
     """Counters of the current diagnostics period."""
 
     samples: int = 0
-    latency_sum_s: float = 0.0
-    latency_max_s: float = 0.0
-    latency_count: int = 0
     started_ns: int = 0
 
 
@@ -83,7 +72,7 @@ class SerialSensorNode(ForteLifecycleNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__('serial_sensor_node', **kwargs)
-        self._declare_parameters()
+        declare_parameters(self)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._state_label = 'unconfigured'
         self._lock = threading.Lock()          # counters, assembler, clock
@@ -113,6 +102,7 @@ class SerialSensorNode(ForteLifecycleNode):
         self._published_batches = 0
         self._published_samples = 0
         self._last_error = ''
+        self._injected_fault: BaseException | None = None
         self._window = _Window()
         self._reset_stream_state()
         self._supervisor = self.create_timer(0.1, self._supervise)
@@ -128,79 +118,18 @@ class SerialSensorNode(ForteLifecycleNode):
     def counters(self) -> dict[str, int]:
         """Cumulative stream counters (the same numbers as in the messages/diagnostics)."""
         with self._lock:
-            decoder = self._decoder if self._binary else self._ascii
-            return {'received_samples': self._assembler.samples,
+            assembler = self._stream.assembler
+            return {'received_samples': assembler.samples,
                     'published_samples': self._published_samples,
                     'published_batches': self._published_batches,
-                    'dropped_frames': self._assembler.dropped_frames,
-                    'corrupt_frames': self._assembler.corrupt_frames,
-                    'device_overruns': self._assembler.device_overruns,
-                    'discarded_bytes': decoder.discarded_bytes,
+                    'dropped_frames': assembler.dropped_frames,
+                    'corrupt_frames': assembler.corrupt_frames,
+                    'device_overruns': assembler.device_overruns,
+                    'discarded_bytes': self._stream.discarded_bytes,
                     'reconnects': self._reconnects}
 
-    # ---- parameters ---------------------------------------------------------------------
-
-    def _declare_parameters(self) -> None:
-        def describe(text: str, **extra) -> ParameterDescriptor:
-            return ParameterDescriptor(description=text, **extra)
-
-        self.declare_parameter('port', '/dev/forte_sensor', describe(
-            'serial device of the sensor board (udev name, see forte_driver/udev)'))
-        self.declare_parameter('protocol', 'binary', describe(
-            "'binary' (FORTE protocol v1) or 'ascii' (legacy T1:..,T6:.. lines)"))
-        self.declare_parameter('baud_rate', 2000000, describe(
-            'baud rate [bit/s]; ignored by USB CDC devices, used by UART bridges',
-            integer_range=[IntegerRange(from_value=9600, to_value=12000000, step=0)]))
-        self.declare_parameter('rtscts', False, describe(
-            'hardware flow control (the legacy firmware used RTS/CTS)'))
-        self.declare_parameter('sample_rate_hz', 2000, describe(
-            'scan rate [Hz]: sent with SET_RATE (binary), nominal rate (ascii); '
-            'must divide 1000000',
-            integer_range=[IntegerRange(from_value=1, to_value=4000, step=0)]))
-        self.declare_parameter('batch_size', 20, describe(
-            'samples per TactileFrames message (a batch also ends at every gap)',
-            integer_range=[IntegerRange(from_value=1, to_value=2000, step=0)]))
-        self.declare_parameter('reliable', False, describe(
-            'reliable QoS on tactile/frames (for recording); default sensor data QoS'))
-        self.declare_parameter('frame_id', 'forte_base_link', describe(
-            'frame_id of the published frames'))
-        self.declare_parameter('reconnect_period', 0.5, describe(
-            'time between attempts to reopen a lost device [s]',
-            floating_point_range=[FloatingPointRange(from_value=0.05, to_value=60.0, step=0.0)]))
-        self.declare_parameter('diagnostics_period', 1.0, describe(
-            'period of /diagnostics messages [s]', read_only=True,
-            floating_point_range=[FloatingPointRange(from_value=0.1, to_value=60.0, step=0.0)]))
-        self.declare_parameter('clock_window', 20.0, describe(
-            'device clock fit window [s]',
-            floating_point_range=[FloatingPointRange(from_value=1.0, to_value=600.0, step=0.0)]))
-        self.declare_parameter('autostart', False, describe(
-            'configure and activate without a lifecycle manager (retries while the device '
-            'is absent)', read_only=True))
-        self.declare_parameter('command_timeout', 0.5, describe(
-            'resend START if not acknowledged within this time [s]',
-            floating_point_range=[FloatingPointRange(from_value=0.05, to_value=10.0, step=0.0)]))
-
     def _on_set_parameters(self, parameters) -> SetParametersResult:
-        for parameter in parameters:
-            name, value = parameter.name, parameter.value
-            if self._state_label != 'unconfigured':
-                return SetParametersResult(
-                    successful=False,
-                    reason=f'{name}: change parameters only while unconfigured '
-                           f'(now {self._state_label}); deactivate and clean up first')
-            if name == 'protocol' and value not in ('binary', 'ascii'):
-                return SetParametersResult(
-                    successful=False, reason=f"protocol must be 'binary' or 'ascii', not {value!r}")
-            if name == 'sample_rate_hz' and (
-                    parameter.type_ != ParameterType.PARAMETER_INTEGER or value < 1
-                    or 1_000_000 % value != 0):
-                return SetParametersResult(
-                    successful=False,
-                    reason=f'sample_rate_hz must be a positive integer dividing 1000000 '
-                           f'(e.g. 2000), got {value!r}')
-            if name in ('port', 'frame_id') and not value:
-                return SetParametersResult(successful=False, reason=f'{name} must not be empty')
-        return SetParametersResult(successful=True)
+        return validate_parameters(parameters, self._state_label)
 
     # ---- stream state ----------------------------------------------------------------------
 
@@ -213,10 +142,9 @@ class SerialSensorNode(ForteLifecycleNode):
         self._read_size = bytes_per_sample * batch_size
         # one batch period plus margin, at most 50 ms (bounds the stop latency)
         self._read_timeout = min(0.05, 1.5 * batch_size / self._rate_hz)
-        self._decoder = FrameDecoder()
-        self._ascii = AsciiLineDecoder()
-        self._assembler = StreamAssembler(batch_size)
-        self._clock_sync = ClockSync(window_s=self.get_parameter('clock_window').value)
+        self._health = ReaderHealth(error_hold_s=self.get_parameter('error_hold').value)
+        self._stream = SensorStream(self._binary, batch_size, self._period_us,
+                                    self.get_parameter('clock_window').value, self._health)
 
     # ---- lifecycle ----------------------------------------------------------------------
 
@@ -233,9 +161,7 @@ class SerialSensorNode(ForteLifecycleNode):
             self._frames_publisher = None
             return TransitionCallbackReturn.FAILURE
         self._reader_stop.clear()
-        self._reader = threading.Thread(target=self._read_loop, name='forte-serial-reader',
-                                        daemon=True)
-        self._reader.start()
+        self._start_reader()
         if self._binary:
             self._send_command(Command.STOP)
             self._send_command(Command.IDENTIFY)
@@ -248,9 +174,12 @@ class SerialSensorNode(ForteLifecycleNode):
         if self._port is None:
             self.get_logger().error('activate: the device is not connected')
             return TransitionCallbackReturn.FAILURE
+        self._health.clear_failure()
+        if not self._reader_alive():
+            self._start_reader()
         with self._lock:
-            self._assembler.start_session()
-            self._assembler.take_batches()
+            self._stream.assembler.start_session()
+            self._stream.assembler.take_batches()
             self._window = _Window(started_ns=self.get_clock().now().nanoseconds)
         self._start_acknowledged = not self._binary
         if self._binary:
@@ -266,9 +195,8 @@ class SerialSensorNode(ForteLifecycleNode):
             self._send_command(Command.STOP)
         with self._publish_lock:
             with self._lock:
-                self._assembler.flush()
-                batches = self._assembler.take_batches()
-            self._publish_batches(batches)
+                stamped = self._stream.flush()
+            self._publish_batches(stamped)
             self._publishing = False
         self._state_label = 'inactive'
         return super().on_deactivate(state)
@@ -312,10 +240,7 @@ class SerialSensorNode(ForteLifecycleNode):
             self._last_error = f'cannot open {port_name}: {error}'
             return False
         with self._lock:
-            self._decoder.reset()
-            self._ascii.reset()
-            self._clock_sync.reset()
-            self._assembler.start_session()
+            self._stream.reconnected()
         with self._port_lock:
             self._port = port
         self._device_lost.clear()
@@ -355,6 +280,31 @@ class SerialSensorNode(ForteLifecycleNode):
 
     # ---- reader thread ---------------------------------------------------------------------
 
+    def _start_reader(self) -> None:
+        self._reader = threading.Thread(target=self._reader_main, name='forte-serial-reader',
+                                        daemon=True)
+        self._reader.start()
+
+    def _reader_alive(self) -> bool:
+        return self._reader is not None and self._reader.is_alive()
+
+    def inject_reader_fault(self, error: BaseException) -> None:
+        """Test and drill hook: the reader raises ``error`` while decoding the next chunk.
+
+        An ``Exception`` exercises the per-step guard (counted, reported, the stream goes
+        on); a ``BaseException`` such as ``SystemExit`` passes the guard and ends the
+        thread, exercising the supervisor's restart.
+        """
+        self._injected_fault = error
+
+    def _reader_main(self) -> None:
+        try:
+            self._read_loop()
+        except BaseException as error:  # noqa: BLE001 - a bug: recorded, the thread ends
+            # and the supervisor restarts it (re-raising would only print it again)
+            self._health.record_thread_death(f'{type(error).__name__}: {error}',
+                                             time.monotonic())
+
     def _read_loop(self) -> None:
         while not self._reader_stop.is_set():
             port = self._port
@@ -369,61 +319,54 @@ class SerialSensorNode(ForteLifecycleNode):
                 if not self._reader_stop.is_set() and self._port is port:
                     self._lose_device(error)
                 continue
-            if not data:
+            except Exception as error:  # noqa: BLE001 - never let the reader die
+                self._reader_error('read', error)
                 continue
-            received_ns = self.get_clock().now().nanoseconds
-            with self._publish_lock:
-                batches = self._decode(data, received_ns)
-                if self._publishing:
-                    self._publish_batches(batches)
+            if data:
+                self._process_chunk(data)
 
-    def _decode(self, data: bytes, received_ns: int) -> list:
+    def _process_chunk(self, data: bytes) -> None:
+        """Decode, stamp and publish one chunk; any exception is a counted reader error
+        (publishing errors are caught per message in :meth:`_publish_batches`)."""
+        try:
+            received_ns = self.get_clock().now().nanoseconds  # before any lock wait
+            with self._publish_lock:
+                stamped = self._decode(data, received_ns)
+                if self._publishing:
+                    self._publish_batches(stamped)
+        except Exception as error:  # noqa: BLE001 - counted, reported, stream goes on
+            self._reader_error('decode', error)
+
+    def _reader_error(self, step: str, error: Exception) -> None:
         with self._lock:
-            assembler = self._assembler
-            if self._binary:
-                newest_time_us = None
-                for item in self._decoder.feed(data):
-                    if isinstance(item, Sample):
-                        assembler.add_sample(item)
-                        newest_time_us = item.time_us
-                    elif isinstance(item, CorruptFrame):
-                        assembler.add_corrupt()
-                    elif isinstance(item, Ack):
-                        self._on_ack(item)
-                    elif isinstance(item, Info):
-                        self._info = item
-                if newest_time_us is not None:
-                    self._clock_sync.add(newest_time_us, received_ns)
-                    latency = self._clock_sync.last_latency_s
-                    if latency is not None:
-                        window = self._window
-                        window.latency_sum_s += latency
-                        window.latency_count += 1
-                        window.latency_max_s = max(window.latency_max_s, latency)
-            else:
-                items = self._ascii.feed(data)
-                lines = sum(1 for item in items if isinstance(item, AsciiSample))
-                received_us = received_ns // 1000
-                index = 0
-                for item in items:
-                    if isinstance(item, AsciiSample):
-                        # caveat: receive time, the last line of the chunk taken as newest
-                        time_us = received_us - (lines - 1 - index) * self._period_us
-                        assembler.add_ascii_sample(item, time_us)
-                        index += 1
-                    else:
-                        assembler.add_corrupt()
-            batches = assembler.take_batches()
+            text = self._health.record_error(step, error, time.monotonic())
+        self._last_error = f'reader error: {text}'
+        self.get_logger().error(f'{self._last_error} (reader_errors '
+                                f'{self._health.reader_errors}); continuing',
+                                throttle_duration_sec=5.0)
+
+    def _decode(self, data: bytes, received_ns: int) -> list[StampedBatch]:
+        with self._lock:
+            if self._injected_fault is not None:
+                error, self._injected_fault = self._injected_fault, None
+                raise error
+            stamped = self._stream.feed(data, received_ns, self._on_control)
             if not self._publishing:
                 return []
-            self._window.samples += sum(len(batch.values) for batch in batches)
-            return batches
+            self._window.samples += sum(len(batch.values) for batch, _ in stamped)
+            return stamped
+
+    def _on_control(self, item: object) -> None:
+        if isinstance(item, Ack):
+            self._on_ack(item)
+        elif isinstance(item, Info):
+            self._info = item
 
     def _on_ack(self, ack: Ack) -> None:
         if ack.command == Command.START:
             if ack.token == self._start_token and ack.status == Status.OK:
                 self._start_acknowledged = True
-                self._assembler.start_session(from_zero=True)
+                self._stream.assembler.start_session(from_zero=True)
             elif ack.status == Status.BUSY:
                 # still streaming from an earlier session: stop and start again
                 self._send_command(Command.STOP)
@@ -435,33 +378,29 @@ class SerialSensorNode(ForteLifecycleNode):
                 self._last_error = (f'SET_RATE {self._rate_hz} Hz refused (status '
                                     f'{ack.status}); device rate {ack.value} Hz')
 
-    def _publish_batches(self, batches) -> None:
+    def _publish_batches(self, stamped: list[StampedBatch]) -> None:
         publisher = self._frames_publisher
-        if publisher is None or not batches:
+        if publisher is None or not stamped:
             return
         frame_id = self.get_parameter('frame_id').value
-        for batch in batches:
-            message = TactileFrames()
-            if self._binary:
-                with self._lock:
-                    stamp_ns = self._clock_sync.to_host_ns(batch.device_time_us)
-                if stamp_ns is None:
-                    continue  # cannot happen: a sample always precedes its batch
-                message.device_time_us = batch.device_time_us
-            else:
-                stamp_ns = batch.device_time_us * 1000
-                message.device_time_us = 0
-            message.header.stamp = Time(nanoseconds=stamp_ns).to_msg()
-            message.header.frame_id = frame_id
-            message.first_sequence = batch.first_sequence
-            message.sample_period = self._period_us * 1e-6
-            message.channel_names = list(protocol.CHANNEL_NAMES)
-            message.sample_count = len(batch.values)
-            message.data = array.array('d', batch.values.ravel().tobytes())
-            message.dropped_frames = self._assembler.dropped_frames
-            message.corrupt_frames = self._assembler.corrupt_frames
-            if not publish_quietly(publisher, message, self.context, self.late):
-                return  # the process is stopping
+        for batch, stamp_ns in stamped:
+            try:
+                message = TactileFrames()
+                message.device_time_us = batch.device_time_us if self._binary else 0
+                message.header.stamp = Time(nanoseconds=stamp_ns).to_msg()
+                message.header.frame_id = frame_id
+                message.first_sequence = batch.first_sequence
+                message.sample_period = self._period_us * 1e-6
+                message.channel_names = list(protocol.CHANNEL_NAMES)
+                message.sample_count = len(batch.values)
+                message.data = array.array('d', batch.values.ravel().tobytes())
+                message.dropped_frames = self._stream.assembler.dropped_frames
+                message.corrupt_frames = self._stream.assembler.corrupt_frames
+                if not publish_quietly(publisher, message, self.context, self.late):
+                    return  # the process is stopping
+            except Exception as error:  # noqa: BLE001 - this batch is lost, counted
+                self._reader_error('publish', error)
+                continue
             self._published_batches += 1
             self._published_samples += len(batch.values)
 
@@ -470,6 +409,9 @@ class SerialSensorNode(ForteLifecycleNode):
     def _supervise(self) -> None:
         if self._autostart_pending:
             self._autostart()
+        if (self._state_label in ('inactive', 'active') and not self._reader_stop.is_set()
+                and not self._health.failed and not self._reader_alive()):
+            self._restart_reader()
         if self._device_lost.is_set() and self._state_label == 'active':
             self.get_logger().warning(f'{self._last_error}; deactivating, will reconnect')
             self.trigger_deactivate()
@@ -491,6 +433,19 @@ class SerialSensorNode(ForteLifecycleNode):
                 > self.get_parameter('command_timeout').value):
             self._send_start()
 
+    def _restart_reader(self) -> None:
+        """The reader thread ended although it should run (a bug): restart it, or give up
+        and deactivate when it keeps dying."""
+        if self._health.allow_restart(time.monotonic()):
+            self.get_logger().error(f'{self._health.last_error}; restarting the reader '
+                                    f'(restart {self._health.reader_restarts})')
+            self._start_reader()
+            return
+        self._last_error = f'reader thread keeps failing: {self._health.last_error}'
+        self.get_logger().error(f'{self._last_error}; deactivating')
+        if self._state_label == 'active':
+            self.trigger_deactivate()
+
     def _autostart(self) -> None:
         now = time.monotonic()
         if self._state_label == 'unconfigured':
@@ -511,9 +466,9 @@ class SerialSensorNode(ForteLifecycleNode):
         now_ns = self.get_clock().now().nanoseconds
         with self._lock:
             window, self._window = self._window, _Window(started_ns=now_ns)
-            assembler = self._assembler
-            decoder = self._decoder if self._binary else self._ascii
-            model = self._clock_sync.model
+            stream = self._stream
+            assembler, clock_sync = stream.assembler, stream.clock_sync
+            latencies = stream.take_latencies()
             values = {
                 'state': self._state_label,
                 'port': self.get_parameter('port').value,
@@ -522,18 +477,22 @@ class SerialSensorNode(ForteLifecycleNode):
                 'nominal_rate_hz': str(self._rate_hz),
                 'samples_published': str(self._published_samples),
                 'batches_published': str(self._published_batches),
-                'dropped_frames': str(assembler.dropped_frames),
-                'device_overruns': str(assembler.device_overruns),
-                'corrupt_frames': str(assembler.corrupt_frames),
-                'discarded_bytes': str(decoder.discarded_bytes),
+                **{name: str(getattr(assembler, name)) for name in ASSEMBLER_COUNTERS},
+                'last_rejection': assembler.last_rejection,
+                'discarded_bytes': str(stream.discarded_bytes),
+                'reader_errors': str(self._health.reader_errors),
+                'reader_restarts': str(self._health.reader_restarts),
+                'last_reader_error': self._health.last_error,
+                'unstamped_samples': str(stream.unstamped_samples),
+                'clock_rejected_observations': str(clock_sync.rejected_observations),
                 'sequence_resets': str(assembler.tracker.sequence_resets),
                 'reconnects': str(self._reconnects),
                 'start_acknowledged': str(self._start_acknowledged),
-                'clock_drift_ppm': f'{self._clock_sync.drift_ppm:.2f}',
-                'clock_resets': str(self._clock_sync.resets),
+                'clock_drift_ppm': f'{clock_sync.drift_ppm:.2f}',
+                'clock_resets': str(clock_sync.resets),
             }
-            if model is not None:
-                values['clock_offset_s'] = f'{model.to_host_ns(0) * 1e-9:.6f}'
+            if clock_sync.model is not None:
+                values['clock_offset_s'] = f'{clock_sync.model.to_host_ns(0) * 1e-9:.6f}'
             if self._info is not None:
                 info = self._info
                 values['device_id'] = f'{info.device_id:016x}'
@@ -543,20 +502,16 @@ class SerialSensorNode(ForteLifecycleNode):
         elapsed_s = (now_ns - window.started_ns) * 1e-9 if window.started_ns else 0.0
         rate = window.samples / elapsed_s if elapsed_s > 0 else 0.0
         values['achieved_rate_hz'] = f'{rate:.1f}'
-        if window.latency_count:
-            values['latency_mean_ms'] = f'{1e3 * window.latency_sum_s / window.latency_count:.3f}'
-            values['latency_max_ms'] = f'{1e3 * window.latency_max_s:.3f}'
+        if latencies:
+            values['latency_mean_ms'] = f'{1e3 * sum(latencies) / len(latencies):.3f}'
+            values['latency_max_ms'] = f'{1e3 * max(latencies):.3f}'
         status = DiagnosticStatus(name=f'{self.get_name()}: tactile sensor',
                                   hardware_id=values.get('device_id', values['port']))
-        if self._state_label == 'active' and self._port is None:
-            status.level, status.message = DiagnosticStatus.ERROR, 'device lost, reconnecting'
-        elif self._state_label == 'inactive' and self._port is None:
-            status.level, status.message = DiagnosticStatus.ERROR, 'device not connected'
-        elif self._state_label == 'active' and rate < 0.9 * self._rate_hz:
-            status.level = DiagnosticStatus.WARN
-            status.message = f'rate {rate:.0f} Hz below nominal {self._rate_hz} Hz'
-        else:
-            status.level, status.message = DiagnosticStatus.OK, self._state_label
+        level, status.message = diagnostics_level(
+            self._state_label, self._port is not None, rate, self._rate_hz, self._health,
+            time.monotonic())
+        status.level = {ERROR: DiagnosticStatus.ERROR,
+                        WARN: DiagnosticStatus.WARN}.get(level, DiagnosticStatus.OK)
         status.values = [KeyValue(key=key, value=value) for key, value in values.items()]
         message = DiagnosticArray()
         message.header.stamp = Time(nanoseconds=now_ns).to_msg()

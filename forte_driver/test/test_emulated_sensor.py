@@ -205,3 +205,64 @@ def test_command_line_emulator_runs_until_interrupted(link):
     assert process.returncode == 0
     assert 'expected dropped' in output
     assert not os.path.lexists(link)
+
+
+def plausible(sample: Sample) -> bool:
+    """The documented ranges: |value| <= 1024 counts, flag bits 0..2 only, and a device
+    time far below the 2**58 us of an implausible frame."""
+    return (all(abs(v) <= protocol.COUNTS_PER_FULL_SCALE for v in sample.values)
+            and not sample.flags & ~0x07 and sample.time_us < 1 << 58)
+
+
+def test_sequence_faults_are_sent_exactly_as_logged(link):
+    plan = FaultPlan(duplicate=0.02, reorder=0.02, implausible=0.02, restart=0.004)
+    with EmulatedSensor(link, faults=plan, seed=12, max_scans=3000) as sensor:
+        host = Host(link)
+        host.command(Command.START)
+        host.pump(20.0, until=lambda: sensor.scans_generated >= 3000)
+        host.pump(0.5)
+        log = sensor.log
+        assert min(log.counts[name] for name in ('duplicate', 'reorder', 'implausible')) > 30
+        assert log.counts['restart'] >= 2
+        impostors = [s for s in host.samples if not plausible(s)]
+        assert len(impostors) == log.implausible == log.counts['implausible'] == log.corrupt
+        assert host.decoder.corrupt_frames == 0  # every impostor has a valid CRC
+        # the host sees: sessions begin with a flagged sequence 0 (START, then restarts)
+        session, received, duplicates, late = 0, [], 0, 0
+        previous = None
+        for sample in filter(plausible, host.samples):
+            if sample.flags & protocol.FLAG_SESSION_START:
+                assert sample.sequence == 0
+                session += 1
+            elif previous is not None and sample.sequence == previous.sequence:
+                assert sample == previous
+                duplicates += 1
+                continue
+            elif previous is not None and sample.sequence == previous.sequence - 1:
+                late += 1
+            received.append((session, sample.sequence, sample.time_us, sample.normalised()))
+            previous = sample
+        assert session == 1 + log.restarts == sensor.sessions
+        assert sum(c.command == Command.START for c in sensor.commands) == 1
+        assert (duplicates, late) == (log.duplicate, log.late) == (
+            log.counts['duplicate'], log.counts['reorder'])
+        assert received == sensor.delivered  # each intact scan once, in transmission order
+        assert len(received) + log.dropped == 3000  # only impostors replaced scans
+        restarted = [s for s in host.samples if plausible(s) and s.sequence == 0][1:]
+        assert all(1_000_000 <= s.time_us < 1_100_000 for s in restarted)  # clock rebooted
+        host.close()
+
+
+def test_sequence_faults_exist_only_in_binary_mode(link):
+    with pytest.raises(ValueError, match='binary'):
+        EmulatedSensor(link, 'ascii', faults=FaultPlan(duplicate=0.1))
+    with pytest.raises(ValueError, match='implausible'):
+        EmulatedSensor(link).inject('gap', kind='time')
+    result = subprocess.run(
+        [sys.executable, '-m', 'forte_driver.emulated_sensor', '--protocol', 'ascii',
+         '--restart', '0.1', '--link', link], capture_output=True, text=True, timeout=30)
+    assert result.returncode == 2 and 'binary' in result.stderr
+    help_text = subprocess.run([sys.executable, '-m', 'forte_driver.emulated_sensor', '--help'],
+                               capture_output=True, text=True, timeout=30).stdout
+    for name in ('--duplicate', '--reorder', '--implausible', '--restart'):
+        assert name in help_text
