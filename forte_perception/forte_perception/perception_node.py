@@ -18,7 +18,10 @@ Input checks (each counted, reported in diagnostics, never invented):
   empty (contract order assumed); ``data`` must hold ``sample_count x 6`` values;
   ``sample_period`` must match ``sample_rate`` within 1 %. Otherwise the message is
   dropped (a gap follows).
-- Rows with NaN/inf are dropped by the pipeline and counted.
+- Invalid values (NaN, inf, ``|x| > input_limit``) mask only their channel (see
+  ``forte_perception.channel_health``); counted per channel, reported in ``channel_health``
+  and per channel in ``/diagnostics`` (ERROR while invalid values arrive, WARN when a
+  channel is stuck or railed).
 - No input for ``stale_timeout`` seconds: a state with ``data_valid = false`` is published
   every ``stale_timeout`` until input returns.
 
@@ -54,6 +57,7 @@ from std_srvs.srv import Trigger
 
 from forte_msgs.msg import TactileFrames, TactileState
 from forte_msgs.srv import Tare
+from forte_perception.channel_health import channel_report
 from forte_perception.force import ForceModel
 from forte_perception.pipeline import PerceptionOutput, PerceptionPipeline, PipelineConfig
 from forte_perception.slip import SlipParams
@@ -84,6 +88,11 @@ PIPELINE_PARAMETERS: dict[str, tuple] = {
     'slip_alpha': (0.6, 'minimum group average variance alpha [dB^2]', (-1e3, 1e6),
                    'slip.alpha'),
     'slip_threshold': (2.0, 'slip threshold T [dB^2]', (-1e3, 1e6), 'slip.threshold'),
+    'input_limit': (1.0, 'largest valid |raw value| [normalised units; the protocol clips at '
+                    '+-1024 counts = +-1.0]; beyond it, or NaN/inf, a value is invalid: its '
+                    'channel is masked, the others continue', (1e-3, 1e6), 'input_limit'),
+    'stuck_duration': (5.0, 'a channel exactly constant this long is reported stuck (WARN, '
+                       'not invalidating) [s]', (0.01, 3600.0), 'stuck_duration'),
 }
 
 
@@ -113,7 +122,9 @@ def build_config(values: dict, sample_rate: float) -> PipelineConfig:
         contact_window=int(values['contact_window']),
         contact_threshold=float(values['contact_threshold']),
         tare_duration=float(values['tare_duration']), auto_tare=bool(values['auto_tare']),
-        force_rate=float(values['force_rate']), slip=slip)
+        force_rate=float(values['force_rate']), slip=slip,
+        input_limit=float(values['input_limit']),
+        stuck_duration=float(values['stuck_duration']))
     config.validate()
     return config
 
@@ -174,6 +185,7 @@ class PerceptionNode(Node):
         self._arrivals = deque(maxlen=4000)  # monotonic arrival times
         self._last_output: PerceptionOutput | None = None
         self._last_stamp = None
+        self._health_snapshot = None  # channel counts at the previous diagnostics
 
         self._group = MutuallyExclusiveCallbackGroup()
         self._service_group = ReentrantCallbackGroup()
@@ -360,6 +372,7 @@ class PerceptionNode(Node):
         msg.tared = bool(out.tared)
         msg.data_valid = bool(out.data_valid if valid is None else valid)
         msg.input_gaps = int(self._gap_offset + out.input_gaps)
+        msg.channel_health = np.asarray(out.channel_health, dtype=np.uint8)
         return msg
 
     def _check_stale(self) -> None:
@@ -454,17 +467,32 @@ class PerceptionNode(Node):
                 'last reject reason': self._last_reject_reason,
                 'processing p50 [us]': f'{np.percentile(proc, 50):.0f}' if proc.size else '',
                 'processing p99 [us]': f'{np.percentile(proc, 99):.0f}' if proc.size else '',
-                'rejected NaN/inf samples': str(out.rejected_samples if out else 0),
+                'rows with invalid values': str(out.rejected_samples if out else 0),
                 'input gaps': str(self._gap_offset + (out.input_gaps if out else 0)),
                 'driver dropped frames': str(self._driver_counts[0]),
                 'driver corrupt frames': str(self._driver_counts[1]),
             }
             values.update({k.replace('_', ' '): str(v) for k, v in self.counters.items()})
             status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+            statuses = [status] + self._channel_statuses()
         array = DiagnosticArray()
         array.header.stamp = self.get_clock().now().to_msg()
-        array.status = [status]
+        array.status = statuses
         self._diag_pub.publish(array)
+
+
+    def _channel_statuses(self) -> list[DiagnosticStatus]:
+        """One status per channel: ERROR if invalid values arrived since the previous
+        diagnostics, WARN if stuck or railed, with the counts (caller holds the lock)."""
+        reports, self._health_snapshot = channel_report(
+            self._pipeline.health, self._health_snapshot, self._sample_rate)
+        statuses = []
+        for name, (level, message, values) in zip(CHANNEL_NAMES, reports, strict=True):
+            statuses.append(DiagnosticStatus(
+                level=bytes([level]), name=f'perception: channel {name}', hardware_id='forte',
+                message=message,
+                values=[KeyValue(key=k, value=v) for k, v in values.items()]))
+        return statuses
 
 
 def main(args: list[str] | None = None) -> int:

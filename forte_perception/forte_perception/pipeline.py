@@ -24,11 +24,16 @@ Design choices (see docs/perception.md):
   step). Force features are computed on the filtered signal and the baseline is subtracted
   from all 24 values (the mean of ``x - b`` is ``mean(x) - b``), so a re-tare applies at once.
 - Force is estimated at absolute samples t with ``(t + 1) % (fs / force_rate) == 0``.
-- Gaps (:meth:`mark_gap`, or rows with NaN/inf which are dropped and counted): no sample is
-  invented. The median filter, the contact window and the slip detector restart after the
-  gap (slip becomes inactive for N + (V - 1) * hop samples); the force means continue over
-  the samples that exist; the baseline is kept. ``data_valid`` is false for the output of
-  that chunk.
+- Gaps (:meth:`mark_gap`): no sample is invented. The median filter, the contact window and
+  the slip detector restart after the gap (slip becomes inactive for N + (V - 1) * hop
+  samples); the force means continue over the samples that exist; the baseline is kept.
+  ``data_valid`` is false for the output of that chunk.
+- Invalid values (NaN, inf, ``|x| > input_limit``) affect only their channel: the value is
+  replaced internally by the channel's last valid value and every output of that channel
+  whose window holds it is masked (:mod:`forte_perception.channel_health`,
+  :mod:`forte_perception.slip_mask`): ``filtered`` and ``psd_max_db`` NaN, excluded from
+  contact and from its finger's slip average, force invalid (NaN) while a force window holds
+  it. Nothing restarts; ``data_valid`` is false for the chunk that contained it.
 """
 from __future__ import annotations
 
@@ -37,12 +42,14 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
-from .force import ForceFeatures, ForceModel
+from .channel_health import HEALTH_MASKED, ChannelHealth
+from .force import ForceFeatures, ForceModel, window_lengths
 from .median import RunningMedian
 from .slip import SlipDetector, SlipParams
+from .slip_mask import SlipMask
 
 __all__ = ['PerceptionOutput', 'PerceptionPipeline', 'PipelineConfig', 'TareResult',
-           'contact_flags']
+           'contact_exceed', 'contact_flags']
 
 N_CHANNELS = 6
 FINGERS = ((0, 1, 2), (3, 4, 5))
@@ -69,6 +76,10 @@ class PipelineConfig:
     force_rate : float
         Force estimates per second [Hz]; fs / force_rate must be an integer.
     slip : SlipParams
+    input_limit : float
+        Largest valid ``|raw|`` [normalised units]; beyond it (or NaN/inf) a value is invalid.
+    stuck_duration : float
+        A channel exactly constant this long is reported stuck [s].
     """
 
     fs: float = 2000.0
@@ -79,6 +90,13 @@ class PipelineConfig:
     auto_tare: bool = True
     force_rate: float = 100.0
     slip: SlipParams = field(default_factory=SlipParams)
+    input_limit: float = 1.0
+    stuck_duration: float = 5.0
+
+    @property
+    def stuck_samples(self) -> int:
+        """Samples of an exactly constant value reported as stuck."""
+        return max(1, int(round(self.stuck_duration * self.fs)))
 
     @property
     def force_step(self) -> int:
@@ -107,6 +125,10 @@ class PipelineConfig:
         ratio = self.fs / self.force_rate
         if abs(ratio - round(ratio)) > 1e-9:
             raise ValueError(f'fs / force_rate must be an integer, got {ratio}')
+        if not (np.isfinite(self.input_limit) and self.input_limit > 0):
+            raise ValueError(f'input_limit must be > 0, got {self.input_limit}')
+        if not (np.isfinite(self.stuck_duration) and self.stuck_duration > 0):
+            raise ValueError(f'stuck_duration must be > 0 s, got {self.stuck_duration}')
         self.slip.validate(self.fs)
 
 
@@ -141,11 +163,13 @@ class PerceptionOutput:
         Latest median-filtered, tared sample (untared before the first tare).
     tared : bool
     data_valid : bool
-        False if this chunk contained rejected rows or followed a gap.
+        False if this chunk contained an invalid value or followed a gap.
     input_gaps : int
-        Cumulative gaps (marked gaps and runs of rejected rows).
+        Cumulative marked gaps.
     rejected_samples : int
-        Cumulative rows dropped because of NaN/inf.
+        Cumulative rows that contained at least one invalid value.
+    channel_health : ndarray, shape (6,), uint8
+        ``HEALTH_*`` bits (:mod:`forte_perception.channel_health`) of this chunk.
     baseline : ndarray, shape (6,)
     force_sample_index : int
         Sample index of the latest force estimate (-1: none yet).
@@ -167,6 +191,7 @@ class PerceptionOutput:
     data_valid: bool = True
     input_gaps: int = 0
     rejected_samples: int = 0
+    channel_health: np.ndarray = field(default_factory=lambda: np.zeros(N_CHANNELS, np.uint8))
     baseline: np.ndarray = field(default_factory=lambda: np.zeros(N_CHANNELS))
     force_sample_index: int = -1
     slip_sample_index: int = -1
@@ -193,9 +218,16 @@ def contact_flags(filtered: np.ndarray, history: np.ndarray, window: int,
         Finger f at row i: any channel of f has max - min over the last w samples (fewer
         at start-up) greater than tau.
     """
+    exceed = contact_exceed(filtered, history, window, threshold)
+    return np.stack([exceed[:, list(f)].any(axis=1) for f in FINGERS], axis=1)
+
+
+def contact_exceed(filtered: np.ndarray, history: np.ndarray, window: int,
+                   threshold: float) -> np.ndarray:
+    """Per-channel part of :func:`contact_flags`: (n, 6) bool, max - min over w > tau."""
     n = filtered.shape[0]
     if n == 0:
-        return np.zeros((0, 2), bool)
+        return np.zeros((0, N_CHANNELS), bool)
     ext = np.concatenate([history, filtered], axis=0)
     h = history.shape[0]
     # causal window [t - w + 1, t]: pad the front with the first sample (does not change
@@ -206,8 +238,7 @@ def contact_flags(filtered: np.ndarray, history: np.ndarray, window: int,
     hi = maximum_filter1d(padded, window, axis=0, origin=origin)
     lo = minimum_filter1d(padded, window, axis=0, origin=origin)
     span = (hi - lo)[pad + h:]
-    exceed = span > threshold
-    return np.stack([exceed[:, list(f)].any(axis=1) for f in FINGERS], axis=1)
+    return span > threshold
 
 
 class PerceptionPipeline:
@@ -234,6 +265,12 @@ class PerceptionPipeline:
         self._median = RunningMedian(c.median_window, N_CHANNELS)
         self._slip = SlipDetector(c.fs, c.slip)
         self._force_features = ForceFeatures(c.fs)
+        self.health = ChannelHealth(c.input_limit, c.stuck_samples)
+        self._slip_mask = SlipMask(c.fs, c.slip, c.median_window)
+        self._median_reach = c.median_window
+        self._contact_reach = c.contact_window + c.median_window - 1
+        self._force_reach = max(window_lengths(c.fs)) + c.median_window - 1
+        self._masked_reach = max(self._contact_reach, self._slip_mask.decision_reach)
         self._contact_history = np.zeros((0, N_CHANNELS))
         self._baseline: np.ndarray | None = None
         self._baseline_tiled = np.zeros(4 * N_CHANNELS)
@@ -267,6 +304,7 @@ class PerceptionPipeline:
     def _restart_streams(self) -> None:
         self._median.reset()
         self._slip.reset()
+        self._slip_mask.reset()
         self._contact_history = np.zeros((0, N_CHANNELS))
         self._out.slip_active = False
 
@@ -277,7 +315,7 @@ class PerceptionPipeline:
 
     @property
     def gaps(self) -> int:
-        """Gaps since (re)start: marked gaps and runs of rejected rows [count]."""
+        """Marked gaps since (re)start [count]."""
         return self._gaps
 
     @property
@@ -322,9 +360,9 @@ class PerceptionPipeline:
     def process(self, frames: np.ndarray) -> PerceptionOutput:
         """Consume raw frames (n, 6) and return the state after the last row.
 
-        Rows containing NaN/inf are dropped and counted (``rejected_samples``); each run of
-        such rows counts as a gap. Never raises on bad values; raises ValueError on a bad
-        shape.
+        Invalid values (NaN, inf, ``|x| > input_limit``) are replaced internally and mask
+        their channel's outputs (module notes); they are counted per channel in
+        :attr:`health`. Never raises on bad values; raises ValueError on a bad shape.
         """
         x = np.asarray(frames, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != N_CHANNELS:
@@ -333,28 +371,20 @@ class PerceptionPipeline:
         data_valid = not self._gap_pending
         self._gap_pending = False
         slip_any = False
-        good = np.isfinite(x).all(axis=1)
-        if good.all():
-            slip_any = self._process_run(x)
-        else:
-            data_valid = False
-            # split into runs of finite rows; each bad run is a gap
-            edges = np.flatnonzero(np.diff(np.concatenate([[0], good.astype(np.int8), [0]])))
-            starts, stops = edges[::2], edges[1::2]
-            bad_rows = int((~good).sum())
-            self._rejected += bad_rows
-            pos = 0
-            for a, b in zip(starts, stops, strict=True):
-                if a > pos:  # bad rows before this run
-                    self._samples += a - pos
-                    self._gaps += 1
-                    self._restart_streams()
-                slip_any |= self._process_run(x[a:b])
-                pos = b
-            if pos < x.shape[0]:
-                self._samples += x.shape[0] - pos
-                self._gaps += 1
-                self._restart_streams()
+        flags = np.zeros(N_CHANNELS, np.uint8)
+        if x.shape[0]:
+            flags, substituted = self.health.check(x, self._samples)
+            tare_raw = x
+            if substituted is not None:
+                data_valid = False
+                invalid = self.health.chunk_invalid
+                self._rejected += int(invalid.any(axis=1).sum())
+                tare_raw = np.where(invalid, np.nan, x)
+                x = substituted
+            slip_any = self._process_run(x, tare_raw)
+            if self.health.any_masked_since(self._samples - 1, self._masked_reach):
+                masked = self.health.masked(self._samples - 1, self._masked_reach)
+                flags[masked] |= HEALTH_MASKED
         out.slip = bool(slip_any)
         out.sample_index = self._samples - 1
         out.data_valid = data_valid
@@ -363,54 +393,78 @@ class PerceptionPipeline:
         out.tared = self._baseline is not None
         out.baseline = (self._baseline.copy() if self._baseline is not None
                         else np.zeros(N_CHANNELS))
-        return replace(out, contact=out.contact.copy(), psd_max_db=out.psd_max_db.copy(),
-                       finger_variance=out.finger_variance.copy(),
-                       filtered=out.filtered.copy())
+        # a snapshot with its own arrays (the constructor directly: cheaper than replace())
+        return PerceptionOutput(**{
+            **vars(out), 'contact': out.contact.copy(), 'psd_max_db': out.psd_max_db.copy(),
+            'finger_variance': out.finger_variance.copy(), 'filtered': out.filtered.copy(),
+            'channel_health': flags})
 
-    def _process_run(self, raw: np.ndarray) -> bool:
-        """Process consecutive finite rows; returns True if a slip update fired."""
+    def _process_run(self, raw: np.ndarray, tare_raw: np.ndarray) -> bool:
+        """Process consecutive rows (invalid values already substituted; ``tare_raw`` has
+        them as NaN); returns True if a slip update fired."""
         c = self.config
         out = self._out
+        health = self.health
         n = raw.shape[0]
-        if n == 0:
-            return False
         first_index = self._samples
         self._samples += n
+        last = first_index + n - 1
         filtered = self._median.update(raw)
         # contact: per sample while a tare collects, else at the last sample only
         keep = c.contact_window - 1
         ext = np.concatenate([self._contact_history, filtered])
+        contact_masks = health.any_masked_since(first_index, self._contact_reach)
         if self._tare_buffer is not None:
-            flags = contact_flags(filtered, self._contact_history, c.contact_window,
-                                  c.contact_threshold)
+            exceed = contact_exceed(filtered, self._contact_history, c.contact_window,
+                                    c.contact_threshold)
+            if contact_masks:
+                exceed &= ~health.masked(first_index + np.arange(n), self._contact_reach)
+            flags = np.stack([exceed[:, list(f)].any(axis=1) for f in FINGERS], axis=1)
             out.contact = flags[-1].copy()
-            self._collect_tare(raw, flags)
+            self._collect_tare(tare_raw, flags)
         else:
             window = ext[-c.contact_window:]
             exceed = (window.max(axis=0) - window.min(axis=0)) > c.contact_threshold
+            if contact_masks:
+                exceed &= ~health.masked(last, self._contact_reach)
             out.contact = np.array([exceed[:3].any(), exceed[3:].any()])
         self._contact_history = ext[-keep:]
         # slip on the filtered, untared signal
         res = self._slip.update(filtered)
-        slip_any = bool(res.slip.any())
+        self._slip_mask.record(filtered, res)
         if len(res):
+            shift = first_index - (self._slip.samples_seen - n)
+            active = bool(res.active[-1])
+            if health.any_masked_since(first_index, self._slip_mask.decision_reach):
+                ends = res.sample_index + shift
+                usable = ~health.masked(ends, self._slip_mask.decision_reach)
+                psd_ok = ~health.masked(ends, self._slip_mask.psd_reach)
+                self._slip_mask.apply(res, usable, psd_ok)
+                active &= bool(usable[-1, :3].any() or usable[-1, 3:].any())
             out.psd_max_db = res.psd_max_db[-1].copy()
             out.finger_variance = res.finger_variance[-1].copy()
-            out.slip_active = bool(res.active[-1])
-            out.slip_sample_index = first_index + int(res.sample_index[-1]) - \
-                (self._slip.samples_seen - n)
+            out.slip_active = active
+            out.slip_sample_index = int(res.sample_index[-1]) + shift
         elif self._slip.updates == 0:
             out.slip_active = False
+        slip_any = bool(res.slip.any())
         out.slip_updates += len(res)
         # force features at the force instants (absolute pipeline sample index)
         step = c.force_step
         offset = first_index - self._force_features.samples_seen
         idx, feats = self._force_features.update(filtered, every=step, offset=offset)
         if idx.size:
-            out.force_sample_index = int(idx[-1] + offset)
-            out.force, out.force_valid = self._estimate(feats[-1])
+            instant = int(idx[-1] + offset)
+            out.force_sample_index = instant
+            if health.any_masked_since(instant, self._force_reach) and \
+                    health.masked(instant, self._force_reach).any():
+                out.force, out.force_valid = float('nan'), False
+            else:
+                out.force, out.force_valid = self._estimate(feats[-1])
         base = self._baseline if self._baseline is not None else 0.0
         out.filtered = filtered[-1] - base
+        if health.any_masked_since(last, self._median_reach):
+            out.filtered[health.masked(last, self._median_reach)] = np.nan
         return slip_any
 
     def _estimate(self, features: np.ndarray) -> tuple[float, bool]:
@@ -440,7 +494,22 @@ class PerceptionPipeline:
         if have < self._tare_target:
             return
         samples = np.concatenate(self._tare_buffer)[:self._tare_target]
-        self._set_baseline(samples.mean(axis=0))
+        valid = ~np.isnan(samples)  # invalid raw values arrive here as NaN
+        if valid.all():
+            self._set_baseline(samples.mean(axis=0))
+        else:
+            counts = valid.sum(axis=0)
+            if (2 * counts < samples.shape[0]).any():  # a channel valid less than half the time
+                bad = [int(ch) for ch in np.flatnonzero(2 * counts < samples.shape[0])]
+                if self._tare_auto:
+                    self._tare_buffer = []
+                    return
+                self.tare_result = TareResult(
+                    False, f'aborted: channels {bad} invalid in more than half of the quiet '
+                    'period', np.full(N_CHANNELS, np.nan))
+                self._tare_buffer = None
+                return
+            self._set_baseline(np.where(valid, samples, 0.0).sum(axis=0) / counts)
         self.tare_result = TareResult(True, f'baseline from {samples.shape[0]} samples',
                                       self._baseline.copy())
         self._tare_buffer = None

@@ -37,3 +37,26 @@ def slip_bursts(n: int, seed: int = 0, onsets: tuple[int, ...] = (6000, 16000),
 def quantise(x: np.ndarray) -> np.ndarray:
     """11-bit normalised quantisation (step 2/2048), clipped to [-1, 1]."""
     return np.clip(np.round(x * 1024.0) / 1024.0, -1.0, 1.0 - 1.0 / 1024.0)
+
+
+def band_bursts(n: int, channels=range(6), onsets: tuple[int, ...] = (3000, 6000, 9000),
+                seed: int = 0, growth_db_per_s: float = 250.0, duration: float = 0.15,
+                offset: float = 0.2, noise: float = 4e-4) -> np.ndarray:
+    """A quiet in-range signal with band-limited (10-50 Hz, 4th-order Butterworth) noise
+    bursts of exponentially rising power on ``channels`` (slip-like), (n, 6).
+
+    Peak magnitude stays well inside [-1, 1] at the defaults (about 0.5).
+    """
+    from scipy import signal
+    rng = np.random.default_rng(seed)
+    b, a = signal.butter(4, [10.0, 50.0], btype='band', fs=FS)
+    x = offset + rng.normal(size=(n, 6)) * noise
+    for onset in onsets:
+        k = np.arange(n) - onset
+        live = (k >= 0) & (k < duration * FS)
+        envelope = np.zeros(n)
+        envelope[live] = 2e-3 * 10.0 ** (growth_db_per_s * k[live] / FS / 20.0)
+        for c in channels:
+            burst = signal.lfilter(b, a, rng.normal(size=n))
+            x[:, c] += envelope * burst / burst.std()
+    return x

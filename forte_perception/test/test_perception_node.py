@@ -6,7 +6,7 @@ import time
 import numpy as np
 import pytest
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from perception_signals import random_walk, slip_bursts
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -24,7 +24,9 @@ CHUNK = 20
 
 
 def stream(n=16000, seed=0):
-    x = 0.2 + slip_bursts(n, seed=seed, onsets=(9000, 13000)) + random_walk(n, seed=seed) * 0.05
+    """Quiet, a press, two slip bursts; inside the transducer's [-1, 1]."""
+    x = 0.2 + slip_bursts(n, seed=seed, onsets=(9000, 13000), growth_db_per_s=450.0) + \
+        random_walk(n, seed=seed) * 0.05
     x[6000:7000] += np.linspace(0, 0.05, 1000)[:, None]  # press
     x[7000:] += 0.05
     return x
@@ -190,12 +192,13 @@ def test_gaps_bad_messages_and_nan(harness):
     perm = [5, 4, 3, 2, 1, 0]
     harness.send(x[3080:3100][:, perm], names=[CHANNEL_NAMES[i] for i in perm])
     assert harness.states[-1].data_valid
-    # NaN rows: dropped and counted, the state says invalid
+    # a NaN masks its channel (no gap, no restart), the state says invalid
     bad = x[3100:3120].copy()
     bad[3, 1] = np.nan
     harness.send(bad)
     assert not harness.states[-1].data_valid
-    assert harness.states[-1].input_gaps == 3  # sequence gap, dropped message, NaN run
+    assert list(harness.states[-1].channel_health) == [0, 5, 0, 0, 0, 0]  # NON_FINITE|MASKED
+    assert harness.states[-1].input_gaps == 2  # sequence gap, dropped message
     # backwards jump (driver restart)
     harness.send(x[3120:3140], first_sequence=0)
     assert not harness.states[-1].data_valid
@@ -250,6 +253,53 @@ def test_parameters_are_validated(harness, tmp_path):
         time.sleep(0.01)
     assert [s.sample_index for s in harness.states[-4:]] == [969, 979, 989, 999]
     assert harness.states[-1].slip_updates == (1000 - 400) // 2 + 1
+
+
+def test_channel_health_in_states_and_diagnostics(harness):
+    """A NaN on left_root and an absurd finite value on right_middle: flagged in the states,
+    ERROR for exactly those channels in /diagnostics with their counts; the others OK."""
+    x = stream()
+    for i in range(0, 1000, CHUNK):
+        harness.send(x[i:i + CHUNK])
+    bad = x[1000:1020].copy()
+    bad[4, 2] = np.nan
+    bad[9, 4] = 1e160
+    bad[10, 4] = 1e160
+    harness.send(bad)
+    state = harness.states[-1]
+    assert not state.data_valid and state.slip_active
+    assert list(state.channel_health) == [0, 0, TactileState.HEALTH_NON_FINITE |
+                                          TactileState.HEALTH_MASKED, 0,
+                                          TactileState.HEALTH_OUT_OF_RANGE |
+                                          TactileState.HEALTH_MASKED, 0]
+    assert np.isnan(state.psd_max_db[[2, 4]]).all() and not np.isinf(state.psd_max_db).any()
+    harness.send(x[1020:1040])
+    assert harness.states[-1].data_valid
+    assert list(harness.states[-1].channel_health) == [0, 0, 4, 0, 4, 0]
+    names = [f'perception: channel {c}' for c in CHANNEL_NAMES]
+    # the first diagnostics published after the bad message was processed (one in flight
+    # from before may arrive first: take the first that reports an error, within 2 periods)
+    before = len(harness.diagnostics)
+    deadline = time.monotonic() + 5.0
+    found = None
+    while found is None:
+        assert time.monotonic() < deadline, 'no diagnostics with the error'
+        for array in harness.diagnostics[before:before + 2]:
+            statuses = {s.name: s for s in array.status}
+            assert set(names) <= set(statuses)
+            if statuses[names[2]].level == DiagnosticStatus.ERROR:
+                found = statuses
+                break
+        time.sleep(0.05)
+    statuses = found
+    levels = [statuses[n].level for n in names]
+    assert levels == [DiagnosticStatus.OK, DiagnosticStatus.OK, DiagnosticStatus.ERROR,
+                      DiagnosticStatus.OK, DiagnosticStatus.ERROR, DiagnosticStatus.OK]
+    values = {kv.key: kv.value for kv in statuses[names[4]].values}
+    assert values['out-of-range values'] == '2' and values['non-finite values'] == '0'
+    values = {kv.key: kv.value for kv in statuses[names[2]].values}
+    assert values['non-finite values'] == '1'
+    assert harness.node.get_parameter('input_limit').value == 1.0
 
 
 def test_stale_input_and_diagnostics(harness):

@@ -20,8 +20,11 @@ def toy_model():
     return ForceModel.fit(x, y, force_range=(0.0, 8.0))
 
 
-def stream(n=16000, seed=0):
-    x = 0.2 + slip_bursts(n, seed=seed, onsets=(9000, 13000)) + random_walk(n, seed=seed) * 0.05
+def stream(n=16000, seed=0, growth_db_per_s=450.0):
+    """Quiet, a press, two slip bursts; inside the transducer's [-1, 1] at the default growth
+    (600 dB/s reaches |x| = 4: out of range, i.e. invalid at the default input_limit)."""
+    x = 0.2 + slip_bursts(n, seed=seed, onsets=(9000, 13000),
+                          growth_db_per_s=growth_db_per_s) + random_walk(n, seed=seed) * 0.05
     x[6000:7000] += np.linspace(0, 0.05, 1000)[:, None]  # a press: contact
     x[7000:] += 0.05
     return x
@@ -41,10 +44,13 @@ def test_auto_tare_is_the_mean_of_the_first_quiet_samples():
     np.testing.assert_allclose(outs[-1].filtered, filt[-1] - pipe.baseline, rtol=0, atol=1e-15)
 
 
-def test_online_equals_offline_batch():
-    x = stream()
+@pytest.mark.parametrize('growth,limit', [(450.0, 1.0), (600.0, 5.0)])
+def test_online_equals_offline_batch(growth, limit):
+    """All values valid: the unmasked paper algorithm, equal to the batch functions."""
+    x = stream(growth_db_per_s=growth)
+    assert np.abs(x).max() < limit
     model = toy_model()
-    pipe = PerceptionPipeline(model=model)
+    pipe = PerceptionPipeline(PipelineConfig(input_limit=limit), model=model)
     outs = run(pipe, x, chunk=20)
     filt = running_median(x)
     slip = slip_features(filt)
@@ -69,6 +75,7 @@ def test_online_equals_offline_batch():
             n_force += 1
         else:
             assert np.isnan(o.force) and not o.force_valid
+        assert o.data_valid and not o.channel_health.any()
     assert n_force > 500
     assert any(o.slip for o in outs) and any(o.contact.any() for o in outs)
     assert outs[-1].slip_updates == len(slip)
@@ -99,7 +106,7 @@ def test_tare_requests():
     assert not quiet.request_tare(-1.0)[0]
 
 
-def test_non_finite_rows_are_dropped_counted_and_restart_the_streams():
+def test_invalid_values_mask_their_channel_without_a_restart():
     x = stream()
     pipe = PerceptionPipeline()
     run(pipe, x[:5000])
@@ -107,15 +114,19 @@ def test_non_finite_rows_are_dropped_counted_and_restart_the_streams():
     bad[5:8, 2] = np.nan
     bad[15, 0] = np.inf
     o = pipe.process(bad)
-    assert not o.data_valid and o.rejected_samples == 4 and o.input_gaps == 2
-    assert o.sample_index == 5019 and not o.slip_active
-    assert np.isfinite(o.filtered).all()
+    assert not o.data_valid and o.rejected_samples == 4 and o.input_gaps == 0
+    assert o.sample_index == 5019 and o.slip_active  # other channels decide: no restart
+    assert o.channel_health.tolist() == [5, 0, 5, 0, 0, 0]  # NON_FINITE | MASKED
+    # median window 5009..5019: holds the inf of channel 0 (5015), not the NaNs (5005-5007)
+    assert np.isnan(o.filtered[0]) and np.isfinite(o.filtered[1:]).all()
+    assert np.isnan(o.psd_max_db[[0, 2]]).all() and np.isfinite(o.psd_max_db[[1, 3, 4, 5]]).all()
+    assert pipe.health.non_finite.tolist() == [1, 0, 3, 0, 0, 0]
     o = pipe.process(x[5020:5040])
-    assert o.data_valid and o.input_gaps == 2
-    # the slip detector needs N + (V-1)*hop samples again
+    assert o.data_valid and o.input_gaps == 0 and o.channel_health.tolist() == [4, 0, 4, 0, 0, 0]
+    # the channels come back once their windows and histories are clean (476 samples)
     outs = run(pipe, x[5040:5600])
-    active = [o.slip_active for o in outs]
-    assert not active[0] and active[-1]
+    assert all(o.slip_active for o in outs)
+    assert not outs[-1].channel_health.any() and np.isfinite(outs[-1].psd_max_db).all()
 
 
 def test_marked_gap():
