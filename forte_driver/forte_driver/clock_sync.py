@@ -23,9 +23,11 @@ from one clock pair; it is typically 0.1-1 ms and is reported, not removed).
 A device clock jump (new device, restart) further than ``jump_tolerance_s`` from the
 model resets the estimator.
 
-Absurd inputs never raise: an observation whose device time or host time lies outside
-:data:`MAX_DEVICE_TIME_US` / :data:`MAX_HOST_TIME_NS` (e.g. a corrupt frame whose CRC
-matched by chance, device time ~5e17 us) is rejected and counted in
+Absurd inputs never raise. Device times are used only as differences from a recent
+reference (exact Python integers), so any non-negative device time works, however large
+(the caller unwraps the protocol's 64-bit counter, see
+:mod:`forte_driver.sensor_stream`). An observation with a negative device time or a host
+time outside :data:`MAX_HOST_TIME_NS` is rejected and counted in
 ``rejected_observations``; :meth:`ClockSync.to_host_ns` returns ``None`` for a device time
 it cannot map to a representable host time (signed 64-bit nanoseconds, >= 0).
 """
@@ -37,16 +39,13 @@ from dataclasses import dataclass
 import numpy as np
 
 NANOSECONDS_PER_MICROSECOND = 1000
-#: Largest device time accepted [us]: 2**62 ns, i.e. 146 years of device uptime.
-MAX_DEVICE_TIME_US = (1 << 62) // NANOSECONDS_PER_MICROSECOND
 #: Host times [ns] must fit a signed 64-bit integer (ROS time, ``builtin_interfaces/Time``).
 MAX_HOST_TIME_NS = (1 << 63) - 1
 
 
 def is_valid_device_time(device_time_us: int) -> bool:
-    """True if ``device_time_us`` [us] is an integer in [0, MAX_DEVICE_TIME_US]."""
-    return (isinstance(device_time_us, (int, np.integer))
-            and 0 <= device_time_us <= MAX_DEVICE_TIME_US)
+    """True if ``device_time_us`` [us] is a non-negative integer (of any size)."""
+    return isinstance(device_time_us, (int, np.integer)) and device_time_us >= 0
 
 
 def is_valid_host_time(host_time_ns: int) -> bool:
@@ -106,8 +105,8 @@ class ClockSync:
     resets : int
         Estimator resets caused by device clock jumps [count].
     rejected_observations : int
-        Observations ignored because a time was outside the representable range
-        (:func:`is_valid_device_time`, :func:`is_valid_host_time`) [count].
+        Observations ignored because a time was unusable (a negative device time, or a
+        host time outside :func:`is_valid_host_time`) [count].
     """
 
     def __init__(self, window_s: float = 20.0, bin_s: float = 0.5,

@@ -31,15 +31,13 @@ _TIME_MASK = _TIME_MODULUS - 1
 _LOW, _HIGH = -COUNTS_PER_FULL_SCALE, COUNTS_PER_FULL_SCALE
 
 
-def check_sample_alone(sample: Sample, sample_period_us: int | None) -> str | None:
+def check_sample_alone(sample: Sample) -> str | None:
     """Why a decoded sample cannot have been sent by the firmware, judged on its own.
 
     Parameters
     ----------
     sample : Sample
         A CRC-valid decoded sample.
-    sample_period_us : int or None
-        Scan period [us]; ``None`` skips the scan-grid check of the device time.
 
     Returns
     -------
@@ -66,8 +64,6 @@ def check_sample_alone(sample: Sample, sample_period_us: int | None) -> str | No
         if sample.sequence < OVERRUN_MODULUS and bool(flags & FLAG_OVERRUN) != bool(
                 sample.overruns):
             return 'first-scan flag with an overrun flag that disagrees with the overruns'
-    if sample_period_us is not None and sample.time_us % sample_period_us:
-        return f'device time {sample.time_us} us off the {sample_period_us} us scan grid'
     return None
 
 

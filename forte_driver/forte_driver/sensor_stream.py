@@ -14,6 +14,10 @@ Rules:
 - A device restart (the assembler's ``restarts`` counter grows: sequence and device time
   start again without a START from the host) resets the clock estimator; the batches of
   the old session are stamped with the old clock first.
+- The clock sees device time unwrapped: the protocol's u64 microsecond counter may wrap
+  (the assembler checks time modulo 2**64), so each accepted time is placed within
+  +-2**63 us of the newest accepted one, and a wrap continues the count instead of
+  looking like a jump back. Unwrapping restarts with the clock (new session, restart).
 - A batch whose device time cannot be mapped to a host time in [0, 2**63) ns is not
   published: its rows are counted in ``unstamped_samples`` and the event is recorded as a
   reader error (it cannot happen with plausible device times).
@@ -34,6 +38,9 @@ from forte_driver.protocol import (
     StreamAssembler,
 )
 from forte_driver.reader_health import ReaderHealth
+
+#: The protocol's device time counter wraps at this value [us].
+DEVICE_TIME_MODULUS = 1 << 64
 
 #: A completed batch and its stamp [ns] (binary: device time mapped to host time; ASCII:
 #: host-derived receive time).
@@ -77,6 +84,8 @@ class SensorStream:
         self.health = health
         self.unstamped_samples = 0
         self._latencies: list[float] = []
+        self._newest_raw_us: int | None = None  # newest accepted device time, as sent
+        self._newest_unwrapped_us = 0  # the same, unwrapped
 
     @property
     def discarded_bytes(self) -> int:
@@ -88,7 +97,7 @@ class SensorStream:
         """A (re)opened port: forget partial frames and the clock; a new session begins."""
         self.frame_decoder.reset()
         self.ascii_decoder.reset()
-        self.clock_sync.reset()
+        self._reset_clock()
         self.assembler.start_session()
 
     def take_latencies(self) -> list[float]:
@@ -125,11 +134,11 @@ class SensorStream:
                     self._observe_clock(newest_time_us, received_ns)
                     stamped += self._stamp(pending + ready)
                     pending = carry
-                    self.clock_sync.reset()
+                    self._reset_clock()
                     self.clock_sync.resets += 1
                     newest_time_us = None
                 if accepted:
-                    newest_time_us = item.time_us
+                    newest_time_us = self._unwrap(item.time_us, newest=True)
             elif isinstance(item, CorruptFrame):
                 assembler.add_corrupt()
             else:
@@ -157,6 +166,24 @@ class SensorStream:
                 self.assembler.add_corrupt()
         return self._stamp(self.assembler.take_batches())
 
+    def _reset_clock(self) -> None:
+        self.clock_sync.reset()
+        self._newest_raw_us = None
+        self._newest_unwrapped_us = 0
+
+    def _unwrap(self, raw_us: int, newest: bool = False) -> int:
+        """Device time [us] on the unwrapped axis: within +-2**63 us of the newest accepted
+        time (``newest``: ``raw_us`` is the new newest accepted time)."""
+        if self._newest_raw_us is None:
+            unwrapped = raw_us
+        else:
+            half = DEVICE_TIME_MODULUS // 2
+            step = (raw_us - self._newest_raw_us + half) % DEVICE_TIME_MODULUS - half
+            unwrapped = self._newest_unwrapped_us + step
+        if newest:
+            self._newest_raw_us, self._newest_unwrapped_us = raw_us, unwrapped
+        return unwrapped
+
     def _observe_clock(self, device_time_us: int | None, received_ns: int) -> None:
         if device_time_us is None or not self.clock_sync.add(device_time_us, received_ns):
             return
@@ -168,7 +195,7 @@ class SensorStream:
         stamped = []
         for batch in batches:
             if self.binary:
-                stamp_ns = self.clock_sync.to_host_ns(batch.device_time_us)
+                stamp_ns = self.clock_sync.to_host_ns(self._unwrap(batch.device_time_us))
             else:
                 stamp_ns = batch.device_time_us * 1000
             if stamp_ns is None or not is_valid_host_time(stamp_ns):

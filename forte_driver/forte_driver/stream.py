@@ -5,10 +5,10 @@ The rules (documented with a table in ``docs/serial_driver.md``):
 - A sample frame is published only if it is *plausible* as well as CRC-valid
   (:mod:`forte_driver.plausibility`): readings in
   [-1024, 1024], no undefined flag or saturation bits, saturation bits consistent with the
-  readings as the firmware sets them, a device time on the scan grid (a whole multiple of
-  the period), and consistent with the stream: within a session the device time advances
-  by exactly (sequence step) x period and the overrun counter by at most the number of
-  skipped sequence numbers. A rejected frame counts as corrupt and as implausible.
+  readings as the firmware sets them, and consistent with the stream: within a session the
+  device time advances by exactly (sequence step) x period and the overrun counter by at
+  most the number of skipped sequence numbers. A rejected frame counts as corrupt and as
+  implausible.
 - A session is anchored only by two mutually consistent frames: the first frame of a
   session is held until a second frame confirms it, so a lone implausible frame can never
   anchor (and be published with) a session.
@@ -405,7 +405,7 @@ class StreamAssembler:
                 self._append(unwrapped, sample.time_us,
                              tuple(v / COUNTS_PER_FULL_SCALE for v in values))
                 return
-        reason = check_sample_alone(sample, period)
+        reason = check_sample_alone(sample)
         if reason is not None:
             self._reject(reason)
             return

@@ -320,7 +320,7 @@ class FaultStreamGenerator:
         elif kind == 3:
             saturated, flags = 1 << rng.randrange(6), 1 if rng.random() < 0.5 else 0
         elif kind == 4:
-            time_us += rng.randint(1, period - 1)                   # off the scan grid
+            time_us += rng.randint(1, period - 1)                   # off the time line
         elif kind == 5:
             time_us += rng.choice((-1, 1)) * rng.randint(1, 1000) * period  # wrong instant
         elif kind == 6:

@@ -88,7 +88,7 @@ def test_first_frame_waits_for_a_confirmation():
     scan(4, flags=FLAG_SATURATED, saturated=0x01),             # clipped but not at +-1024
     scan(4, saturated=0x01, values=(1024, 0, 0, 0, 0, 0)),     # bit without the flag
     scan(4, flags=FLAG_SATURATED, values=(1024, 0, 0, 0, 0, 0)),  # flag without bits
-    scan(4, time_us=BASE_TIME + 4 * PERIOD + 1),               # off the scan grid
+    scan(4, time_us=BASE_TIME + 4 * PERIOD + 1),               # 1 us off the time line
     scan(4, time_us=BASE_TIME + 5 * PERIOD),                   # wrong instant for seq 4
     scan(4, overruns=1),                                       # overrun without a gap
     scan(4, flags=FLAG_OVERRUN),                               # overrun flag, no overrun
