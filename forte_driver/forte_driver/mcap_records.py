@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import struct
 import zlib
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 from mcap.opcode import Opcode
@@ -283,6 +284,40 @@ def decompress(header: ChunkHeader, data: bytes) -> bytes:
     return records
 
 
+def iter_records(data: bytes | memoryview, where: str) -> Iterator[tuple[int, int, memoryview]]:
+    """Split a run of records that must fill ``data`` exactly (a chunk, a summary section).
+
+    Parameters
+    ----------
+    data : bytes or memoryview
+        Consecutive records: opcode (u8), length (u64 little-endian), content.
+    where : str
+        What ``data`` is, for the error messages (e.g. ``'chunk'``).
+
+    Yields
+    ------
+    tuple of (int, int, memoryview)
+        Position of the record in ``data`` [byte], opcode, content.
+
+    Raises
+    ------
+    InvalidRecord
+        If a record header or content runs past the end of ``data``.
+    """
+    view = memoryview(data)
+    position = 0
+    while position < len(view):
+        if position + RECORD_HEADER > len(view):
+            raise InvalidRecord(f'record header at {position} overruns the {where}')
+        opcode = view[position]
+        (length,) = struct.unpack_from('<Q', view, position + 1)
+        start = position + RECORD_HEADER
+        if length > len(view) - start:
+            raise InvalidRecord(f'record at {position} in the {where} overruns it')
+        yield position, opcode, view[start:start + length]
+        position = start + length
+
+
 def chunk_records(records: bytes) -> list[SchemaRecord | ChannelRecord | MessageRecord]:
     """Parse a chunk's uncompressed records, all of them, exactly to the end.
 
@@ -291,18 +326,8 @@ def chunk_records(records: bytes) -> list[SchemaRecord | ChannelRecord | Message
     InvalidRecord
         If any record overruns, does not parse, or is of a type not allowed in a chunk.
     """
-    view = memoryview(records)
     result: list[SchemaRecord | ChannelRecord | MessageRecord] = []
-    position = 0
-    while position < len(view):
-        if position + RECORD_HEADER > len(view):
-            raise InvalidRecord('record header overruns the chunk')
-        opcode = view[position]
-        (length,) = struct.unpack_from('<Q', view, position + 1)
-        start = position + RECORD_HEADER
-        if length > len(view) - start:
-            raise InvalidRecord(f'record at {position} in the chunk overruns it')
-        content = view[start:start + length]
+    for _, opcode, content in iter_records(records, 'chunk'):
         if opcode == Opcode.MESSAGE:
             result.append(parse_message(content))
         elif opcode == Opcode.SCHEMA:
@@ -311,5 +336,4 @@ def chunk_records(records: bytes) -> list[SchemaRecord | ChannelRecord | Message
             result.append(parse_channel(content))
         elif opcode < 0x80:
             raise InvalidRecord(f'opcode {opcode:#04x} is not allowed in a chunk')
-        position = start + length
     return result

@@ -55,6 +55,7 @@ from forte_driver.mcap_records import (
     SchemaRecord,
     chunk_records,
     decompress,
+    iter_records,
     parse_channel,
     parse_chunk_header,
     parse_chunk_index,
@@ -170,17 +171,7 @@ def read_summary(stream: BinaryIO, size: int) -> tuple[int, Summary | None, list
 
 def _parse_summary(summary_bytes: bytes, summary_start: int) -> Summary:
     summary = Summary()
-    view = memoryview(summary_bytes)
-    position = 0
-    while position < len(view):
-        if position + RECORD_HEADER > len(view):
-            raise InvalidRecord('summary record header cut off')
-        opcode = view[position]
-        (length,) = struct.unpack_from('<Q', view, position + 1)
-        start = position + RECORD_HEADER
-        if length > len(view) - start:
-            raise InvalidRecord(f'summary record at byte {summary_start + position} overruns')
-        content = view[start:start + length]
+    for _, opcode, content in iter_records(summary_bytes, 'summary section'):
         if opcode == Opcode.SCHEMA:
             summary.schemas.append(parse_schema(content))
         elif opcode == Opcode.CHANNEL:
@@ -190,7 +181,6 @@ def _parse_summary(summary_bytes: bytes, summary_start: int) -> Summary:
             summary.chunks[entry.chunk_start_offset] = entry
         elif not plausible_opcode(opcode):
             raise InvalidRecord(f'opcode {opcode:#04x} in the summary')
-        position = start + length
     previous_end = len(MAGIC)
     for offset in sorted(summary.chunks):
         entry = summary.chunks[offset]
