@@ -152,15 +152,8 @@ class FaultStreamGenerator:
     def blocks(self, total_scans: int, block_scans: int = 50_000) -> Iterator[Block]:
         """Yield the stream in blocks (each ends with clean frames: no candidate spans
         two blocks); :attr:`expected` is complete once the iterator is exhausted."""
-        rng, expected = self.rng, self.expected
         remaining = total_scans
-        start_time = (2 ** 63 // self.period_us - 8 * total_scans - 10_000) * self.period_us
-        session = _Session('attach', 0, (1 << 32) - rng.randint(100, 5000), start_time,
-                           overruns=rng.randint(0, 5000))
-        session.reported = session.overruns
-        session.first_pushed = False
-        session.scans = min(remaining, max(300, rng.randint(total_scans // 6,
-                                                            total_scans // 3 + 1)))
+        session = self._first_session(total_scans)
         out = _BlockWriter()
         while True:
             remaining -= session.scans
@@ -168,11 +161,27 @@ class FaultStreamGenerator:
             self._close(session)
             if remaining < 300:
                 break
-            session = self._next_session(session, min(remaining, max(
-                300, rng.randint(total_scans // 6, total_scans // 3 + 1))), out)
+            session = self._next_session(
+                session, min(remaining, self._session_length(total_scans)), out)
         if out.data:
             yield out.take(self)
-        expected.counts = dict(expected.counts)
+        self.expected.counts = dict(self.expected.counts)
+
+    def _session_length(self, total_scans: int) -> int:
+        """Scans of one session: a sixth to a third of the stream, at least 300."""
+        return max(300, self.rng.randint(total_scans // 6, total_scans // 3 + 1))
+
+    def _first_session(self, total_scans: int) -> _Session:
+        """A host attaching mid-stream: sequence just below the 2**32 wrap, device time
+        near 2**63 us, overruns already counted."""
+        rng = self.rng
+        start_time = (2 ** 63 // self.period_us - 8 * total_scans - 10_000) * self.period_us
+        session = _Session('attach', 0, (1 << 32) - rng.randint(100, 5000), start_time,
+                           overruns=rng.randint(0, 5000))
+        session.reported = session.overruns
+        session.first_pushed = False
+        session.scans = min(total_scans, self._session_length(total_scans))
+        return session
 
     def _next_session(self, old: _Session, scans: int, out: _BlockWriter) -> _Session:
         rng = self.rng

@@ -67,28 +67,15 @@ class OneStartSessionGenerator(FaultStreamGenerator):
         """Device time of the first scan instant [us, unwrapped]."""
         return (2 ** 64 // self.period_us - self.wrap_after_scans) * self.period_us
 
-    def blocks(self, total_scans: int, block_scans: int = 50_000):
-        """Like :meth:`FaultStreamGenerator.blocks`, but the first session is the START
-        session the host's command created."""
-        rng, remaining = self.rng, total_scans
-        initial = rng.randint(0, 3)  # scans the device missed right after START
+    def _first_session(self, total_scans: int) -> _Session:
+        """The START session the host's command created (instead of an attach)."""
+        initial = self.rng.randint(0, 3)  # scans the device missed right after START
         session = _Session('start', 0, initial,
                            self.start_time_us() + initial * self.period_us, overruns=initial)
         session.from_zero = True
-        session.scans = min(remaining, max(300, rng.randint(total_scans // 6,
-                                                            total_scans // 3 + 1)))
+        session.scans = min(total_scans, self._session_length(total_scans))
         self.expected.counts['host_start'] = 1
-        out = _BlockWriter()
-        while True:
-            remaining -= session.scans
-            yield from self._session(session, out, block_scans)
-            self._close(session)
-            if remaining < 300:
-                break
-            session = self._next_session(session, min(remaining, max(
-                300, rng.randint(total_scans // 6, total_scans // 3 + 1))), out)
-        if out.data:
-            yield out.take(self)
+        return session
 
     def _session(self, session: _Session, out: _BlockWriter, block_scans: int):
         self.session_starts.append((session.time_us, session.sequence))
