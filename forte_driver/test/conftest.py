@@ -8,6 +8,7 @@ protocol behaviour: a servo that does not answer at all still times out.
 """
 import dynamixel_sdk.port_handler
 import pytest
+from dynamixel_sdk import PortHandler
 
 #: Latency allowance for the simulated servo [ms] (packet timeout = 2 x this + 2 ms + bytes).
 SIMULATED_SERVO_LATENCY_MS = 64
@@ -16,3 +17,13 @@ SIMULATED_SERVO_LATENCY_MS = 64
 @pytest.fixture(autouse=True)
 def slow_peer_latency(monkeypatch):
     monkeypatch.setattr(dynamixel_sdk.port_handler, 'LATENCY_TIMER', SIMULATED_SERVO_LATENCY_MS)
+
+
+@pytest.fixture
+def port(bus):
+    """The simulated servo pair's pty opened at 4 Mbaud with the real dynamixel-sdk
+    (``bus``: a ``SimulatedServoProcess`` fixture of the test module)."""
+    handler = PortHandler(bus.device_path)
+    assert handler.openPort() and handler.setBaudRate(4_000_000)
+    yield handler
+    handler.closePort()

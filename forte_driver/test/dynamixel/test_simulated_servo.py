@@ -167,14 +167,6 @@ def bus():
         yield simulated
 
 
-@pytest.fixture
-def port(bus):
-    handler = PortHandler(bus.device_path)
-    assert handler.openPort() and handler.setBaudRate(4_000_000)
-    yield handler
-    handler.closePort()
-
-
 def _retry(function, attempts=3):
     """Run an idempotent SDK read; retry if the loaded test machine missed the SDK's
     34 ms timeout (a real bus can time out too)."""

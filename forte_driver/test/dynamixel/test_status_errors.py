@@ -9,7 +9,7 @@ while the servo's shutdown keeps its torque off. Tests run the real dynamixel-sd
 the simulated XM430-W350 pair, which injects each error kind on demand.
 """
 import pytest
-from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, PacketHandler, PortHandler
+from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, PacketHandler
 
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import protocol as proto
@@ -84,14 +84,6 @@ def test_fault_injection_is_validated_and_consumed_in_order():
 def bus():
     with SimulatedServoProcess(ids=(1, 2), positions=(2200, 1900)) as simulated:
         yield simulated
-
-
-@pytest.fixture
-def port(bus):
-    handler = PortHandler(bus.device_path)
-    assert handler.openPort() and handler.setBaudRate(4_000_000)
-    yield handler
-    handler.closePort()
 
 
 def test_simulated_servo_answers_injected_error_numbers_and_refuses_the_instruction(bus, port):
