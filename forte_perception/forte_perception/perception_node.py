@@ -480,7 +480,6 @@ class PerceptionNode(Node):
         array.status = statuses
         self._diag_pub.publish(array)
 
-
     def _channel_statuses(self) -> list[DiagnosticStatus]:
         """One status per channel: ERROR if invalid values arrived since the previous
         diagnostics, WARN if stuck or railed, with the counts (caller holds the lock)."""
