@@ -34,8 +34,6 @@ MAX_RECORD = 4 * 2**30
 COMPRESSIONS = ('', 'zstd', 'lz4')
 #: Opcodes defined by the specification.
 KNOWN_OPCODES = frozenset(int(opcode) for opcode in Opcode)
-#: Records allowed inside a chunk.
-CHUNK_CONTENT_OPCODES = frozenset((Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE))
 
 
 class InvalidRecord(ValueError):
