@@ -4,7 +4,7 @@ Prints, for one minute of tactile frames (6000 TactileFrames of 20 samples, 100 
 
 - write: BagWriter (rosbags MCAP rosbag2) vs a baseline that appends the same CDR bytes to
   a plain file (the cheapest possible recorder), messages/s and x realtime;
-- read: forte_driver.mcap_source.read_bag (damage-tolerant, record-by-record) vs the mcap
+- read: forte_driver.replay.mcap_source.read_bag (damage-tolerant, record-by-record) vs the mcap
   library's own indexed reader (make_reader().iter_messages), messages/s and the ratio;
 - decode: rclpy deserialize_message per message (what bag_replay_node does) in x realtime.
 """
@@ -18,7 +18,7 @@ import numpy as np
 from mcap.reader import make_reader
 from rclpy.serialization import deserialize_message, serialize_message
 
-from forte_bringup.bags import BagWriter, TopicSpec, read_bag
+from forte_driver.replay.bags import BagWriter, TopicSpec, read_bag
 from forte_msgs.msg import TactileFrames
 
 MESSAGES = 6000  # 60 s at 100 messages/s

@@ -1,7 +1,7 @@
 """Long fault-injection streams through the serial decoder and stream accounting.
 
 1. Correctness at scale: a seeded stream of 1e7 scans (``--quick``: 1e6) from the
-   independent encoder of ``forte_driver/test/fault_streams.py`` (garbage, false
+   independent encoder of ``forte_driver/test/serial/fault_streams.py`` (garbage, false
    signatures, truncation, bit flips anywhere, gaps, duplicates, reordering, CRC-valid
    implausible frames, device overruns, sequence wrap at 2**32, device times near 2**63,
    START sessions and device restarts) fed through FrameDecoder + StreamAssembler in
@@ -23,12 +23,12 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'forte_driver' / 'test'))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'forte_driver' / 'test' / 'serial'))
 
 from fault_streams import FaultStreamGenerator, run_stream  # noqa: E402
 
-from forte_driver import protocol  # noqa: E402
-from forte_driver.stream import StreamAssembler  # noqa: E402
+from forte_driver.serial import protocol  # noqa: E402
+from forte_driver.serial.stream import StreamAssembler  # noqa: E402
 
 SIGNATURE = b'\xa5\x5a\x01'
 LENGTHS = {0x01: 28, 0x02: 4, 0x03: 8, 0x04: 20}

@@ -9,7 +9,8 @@ time from ``/proc/<pid>/stat`` (utime + stime, in % of one core) over each phase
   reset and auto-tare); the outcome of every grasp and the ground truth are counted, and any
   STALE_* fault is reported;
 - **hardware**: the emulated tactile sensor and the simulated Dynamixel pair on
-  pseudo-terminals (``forte_driver.emulated_sensor``, ``forte_driver.simulated_servo``),
+  pseudo-terminals (``forte_driver.bench_devices.emulated_sensor``,
+  ``forte_driver.bench_devices.simulated_servo``),
   idle;
 - **replay**: a bag of a quiet sensor (``graph_probe.write_quiet_bag``) replayed at its
   recorded rate.

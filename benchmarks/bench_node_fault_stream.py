@@ -4,7 +4,7 @@ The library benchmark (``bench_fault_streams.py``) checks FrameDecoder + StreamA
 this one checks the node around them: reader thread, SensorStream, clock stamping,
 lifecycle, publishing, /diagnostics.
 
-1. ``forte_driver/test/scripted_device.py`` generates one START session of the
+1. ``forte_driver/test/serial/scripted_device.py`` generates one START session of the
    independent encoder's fault stream (garbage, false sync, bit flips anywhere,
    truncation, gaps, duplicates, delayed frames, CRC-valid implausible frames, device
    overruns, device-time wrap at 2**64) followed by device restarts (first-scan flag),
@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / 'forte_driver' / 'test'))
+sys.path.insert(0, str(ROOT / 'forte_driver' / 'test' / 'serial'))
 
 from forte_bringup.ros_isolation import isolate_ros_network  # noqa: E402
 
@@ -221,7 +221,7 @@ def expected_counters(generator: OneStartSessionGenerator, rows: list) -> dict[s
 
 
 def start_node(link: str, batch_size: int, log) -> subprocess.Popen:
-    command = [sys.executable, '-m', 'forte_driver.serial_sensor_node', '--ros-args',
+    command = [sys.executable, '-m', 'forte_driver.serial.serial_sensor_node', '--ros-args',
                '-p', f'port:={link}', '-p', 'autostart:=true', '-p', 'reliable:=true',
                '-p', 'diagnostics_period:=0.5', '-p', f'batch_size:={batch_size}']
     return subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, cwd=str(ROOT))

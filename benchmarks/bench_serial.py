@@ -1,7 +1,7 @@
 """Serial sensor path: decode throughput and driver CPU share at 2 kHz, each with a baseline.
 
 1. Decode throughput (no I/O): the same 100 000 scans as binary frames through
-   forte_driver.protocol.FrameDecoder (fed in 4 KiB chunks, as the driver reads) vs two
+   forte_driver.serial.protocol.FrameDecoder (fed in 4 KiB chunks, as the driver reads) vs two
    baselines measured in this run: a naive byte-at-a-time binary decoder, and the legacy
    ASCII lines through the strict AsciiLineDecoder.
 2. Driver CPU share at 2 kHz over a real pty: the lifecycle node (binary protocol) reading
@@ -28,8 +28,8 @@ isolate_ros_network()
 import binascii  # noqa: E402
 import struct  # noqa: E402
 
-from forte_driver import protocol  # noqa: E402
-from forte_driver.emulated_sensor import default_signal  # noqa: E402
+from forte_driver.bench_devices.emulated_sensor import default_signal  # noqa: E402
+from forte_driver.serial import protocol  # noqa: E402
 
 
 def make_streams(count: int) -> tuple[bytes, bytes]:
@@ -93,11 +93,11 @@ def run_driver(protocol_name: str, seconds: float) -> dict:
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
 
-    from forte_driver.serial_sensor_node import SerialSensorNode
+    from forte_driver.serial.serial_sensor_node import SerialSensorNode
 
     link = os.path.join(tempfile.mkdtemp(prefix='forte_bench_'), 'forte_sensor')
-    device = subprocess.Popen([sys.executable, '-m', 'forte_driver.emulated_sensor', '--link',
-                               link, '--protocol', protocol_name, '--rate', '2000'],
+    device = subprocess.Popen([sys.executable, '-m', 'forte_driver.bench_devices.emulated_sensor',
+                               '--link', link, '--protocol', protocol_name, '--rate', '2000'],
                               stdout=subprocess.DEVNULL)
     context = rclpy.Context()
     rclpy.init(context=context)

@@ -137,7 +137,7 @@ def section_node() -> None:
     import rclpy
     from rclpy.parameter import Parameter
 
-    from forte_driver.sim_node import SimNode
+    from forte_driver.sim.sim_node import SimNode
 
     rclpy.init()
     try:

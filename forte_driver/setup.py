@@ -34,12 +34,12 @@ setup(
     extras_require={'test': ['pytest']},
     entry_points={
         'console_scripts': [
-            'serial_sensor_node = forte_driver.serial_sensor_node:main',
-            'gripper_driver_node = forte_driver.gripper_driver_node:main',
-            'sim_node = forte_driver.sim_node:main',
-            'bag_replay_node = forte_driver.bag_replay_node:main',
-            'forte_emulated_sensor = forte_driver.emulated_sensor:main',
-            'forte_simulated_servo = forte_driver.simulated_servo:main',
+            'serial_sensor_node = forte_driver.serial.serial_sensor_node:main',
+            'gripper_driver_node = forte_driver.dynamixel.gripper_driver_node:main',
+            'sim_node = forte_driver.sim.sim_node:main',
+            'bag_replay_node = forte_driver.replay.bag_replay_node:main',
+            'forte_emulated_sensor = forte_driver.bench_devices.emulated_sensor:main',
+            'forte_simulated_servo = forte_driver.bench_devices.simulated_servo:main',
             'forte_sim_dataset = forte_driver.sim.dataset_tool:main',
         ],
     },

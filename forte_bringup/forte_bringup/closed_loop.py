@@ -49,7 +49,7 @@ from forte_control.state_machine import (
     GraspStateMachine,
     JointInput,
     Outcome,
-    PerceptionInput,
+    perception_input,
 )
 
 __all__ = ['OBJECT_STATE_NAMES', 'TrialResult', 'default_force_model', 'run_trial',
@@ -396,12 +396,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
     t0 = scene.time - SAMPLE_PERIOD  # time of the last warm-up sample
 
     def inputs_from(out, truth, stamp):
-        perception = PerceptionInput(
-            stamp=stamp, force=float(out.force), force_valid=bool(out.force_valid),
-            contact=(bool(out.contact[0]), bool(out.contact[1])), slip=bool(out.slip),
-            slip_active=bool(out.slip_active), data_valid=bool(out.data_valid),
-            filtered=tuple(float(v) for v in out.filtered),
-            finger_variance=(float(out.finger_variance[0]), float(out.finger_variance[1])))
+        perception = perception_input(out, stamp)
         # what the servos report: angle and current (never the scene's ground truth)
         joint = JointInput(stamp=stamp, theta=float(truth.joint_position[-1]),
                            effort=float(np.mean(scene.joint_effort)))

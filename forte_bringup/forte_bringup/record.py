@@ -3,7 +3,7 @@
 A recorder node subscribes to each wanted topic as soon as a publisher appears, with the
 type and a QoS compatible with what the publishers offer (best effort if any publisher
 is best effort, transient local if every publisher is), receives the messages serialized
-(no decode) and streams them to a rosbag2 MCAP bag (:class:`forte_bringup.bags.BagWriter`)
+(no decode) and streams them to a rosbag2 MCAP bag (:class:`forte_driver.replay.bags.BagWriter`)
 stamped with the receive time of the node's clock (sim time when ``use_sim_time``).
 Data are on disk in 1 MiB chunks as they arrive; ``metadata.yaml`` is written when the
 recorder stops (Ctrl-C, SIGTERM, ``--duration``). A recorder killed hard leaves an MCAP
@@ -29,7 +29,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from forte_bringup.bags import DEFAULT_TOPICS, BagWriter, TopicSpec
+from forte_driver.replay.bags import DEFAULT_TOPICS, BagWriter, TopicSpec
 
 #: Topics that exist in every ROS 2 graph and are never worth recording with ``--all``.
 IGNORED_TOPICS = frozenset({'/parameter_events', '/rosout'})
@@ -49,7 +49,7 @@ class BagRecorder:
         Bag folder to create.
     topics : sequence of str, optional
         Topic names (relative names are resolved in the root namespace); by default the
-        contract's topics (:data:`forte_bringup.bags.DEFAULT_TOPICS`).
+        contract's topics (:data:`forte_driver.replay.bags.DEFAULT_TOPICS`).
     record_all : bool
         Record every topic that appears (except ``/rosout`` and ``/parameter_events``).
     node_name : str

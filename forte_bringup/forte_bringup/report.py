@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from forte_bringup.bags import read_bag
+from forte_driver.replay.bags import read_bag
 
 CHANNEL_NAMES = ('left_distal', 'left_middle', 'left_root', 'right_distal', 'right_middle',
                  'right_root')

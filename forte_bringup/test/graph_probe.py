@@ -288,7 +288,7 @@ def write_quiet_bag(path: Path, messages: int = 600, first_second: int = 1000,
     import numpy as np
     from rclpy.serialization import serialize_message
 
-    from forte_bringup.bags import BagWriter, TopicSpec
+    from forte_driver.replay.bags import BagWriter, TopicSpec
     from forte_msgs.msg import TactileFrames
 
     rng = np.random.default_rng(seed)
@@ -312,9 +312,9 @@ def write_quiet_bag(path: Path, messages: int = 600, first_second: int = 1000,
 def emulated_devices(folder: Path, timeout: float = 20.0) -> Iterator[tuple[Path, Path]]:
     """The emulated tactile sensor and the simulated Dynamixel pair on pseudo-terminals.
 
-    Runs ``python -m forte_driver.emulated_sensor --link <folder>/forte_sensor`` and
-    ``python -m forte_driver.simulated_servo --link <folder>/forte_gripper``; stops both
-    with SIGINT (SIGKILL after 10 s) on exit.
+    Runs ``python -m forte_driver.bench_devices.emulated_sensor --link <folder>/forte_sensor``
+    and ``python -m forte_driver.bench_devices.simulated_servo --link <folder>/forte_gripper``;
+    stops both with SIGINT (SIGKILL after 10 s) on exit.
 
     Yields
     ------
@@ -323,10 +323,10 @@ def emulated_devices(folder: Path, timeout: float = 20.0) -> Iterator[tuple[Path
     """
     sensor_link, servo_link = folder / 'forte_sensor', folder / 'forte_gripper'
     devices = [
-        subprocess.Popen([sys.executable, '-m', 'forte_driver.emulated_sensor',
+        subprocess.Popen([sys.executable, '-m', 'forte_driver.bench_devices.emulated_sensor',
                           '--link', str(sensor_link)],
                          stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT),
-        subprocess.Popen([sys.executable, '-m', 'forte_driver.simulated_servo',
+        subprocess.Popen([sys.executable, '-m', 'forte_driver.bench_devices.simulated_servo',
                           '--link', str(servo_link)],
                          stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT),
     ]

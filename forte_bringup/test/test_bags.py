@@ -26,8 +26,8 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.rosbag2 import Reader as RosbagsReader
 
-from forte_bringup.bags import BagError, BagWriter, TopicSpec, forte_typestore, read_bag
 from forte_bringup.record import BagRecorder
+from forte_driver.replay.bags import BagError, BagWriter, TopicSpec, forte_typestore, read_bag
 from forte_msgs.msg import GraspState, TactileFrames
 
 CHANNELS = ['left_distal', 'left_middle', 'left_root', 'right_distal', 'right_middle',

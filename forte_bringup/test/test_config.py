@@ -85,7 +85,7 @@ def test_yaml_keys_are_declared_parameters_with_those_values(graph, tmp_path):
     data = load(graph)
     arguments = {'bag': str(tmp_path / 'no_bag_needed.mcap')}
     if graph == 'replay':  # the replay node checks its bag at start: give it a real one
-        from forte_bringup.bags import BagWriter, TopicSpec
+        from forte_driver.replay.bags import BagWriter, TopicSpec
         bag = tmp_path / 'bag'
         with BagWriter(bag) as writer:
             writer.add_topic(TopicSpec('tactile/frames', 'forte_msgs/msg/TactileFrames'))

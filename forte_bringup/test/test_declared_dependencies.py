@@ -65,10 +65,10 @@ RUNTIME_ONLY: dict[tuple[str, str], str] = {
 }
 
 #: Packages that import message classes by type name (importlib): forte_record records and
-#: bag_replay_node replays the topics of forte_bringup/bags.py, so the packages of the
-#: message types named there are runtime imports of both.
+#: bag_replay_node replays the topics of forte_driver/forte_driver/replay/bags.py, so the
+#: packages of the message types named there are runtime imports of both.
 BY_TYPE_NAME = ('forte_driver', 'forte_bringup')
-TOPIC_TYPES_FILE = ROOT / 'forte_bringup' / 'forte_bringup' / 'bags.py'
+TOPIC_TYPES_FILE = ROOT / 'forte_driver' / 'forte_driver' / 'replay' / 'bags.py'
 
 
 def imported_modules(path: Path) -> set[str]:
@@ -98,7 +98,7 @@ def imported_modules(path: Path) -> set[str]:
 
 
 def recorded_type_packages() -> set[str]:
-    """Packages of the message types (``pkg/msg/Name`` literals) in forte_bringup/bags.py."""
+    """Packages of the message types (``pkg/msg/Name`` literals) in replay/bags.py."""
     tree = ast.parse(TOPIC_TYPES_FILE.read_text())
     return {node.value.split('/')[0] for node in ast.walk(tree)
             if isinstance(node, ast.Constant) and isinstance(node.value, str)
@@ -124,9 +124,10 @@ def third_party_imports(package: str) -> dict[str, dict[str, set[str]]]:
     scopes = {'runtime': [*(path for module in modules for path in (folder / module).rglob('*.py')),
                           *(folder / 'launch').rglob('*.py')],
               'test': list((folder / 'test').rglob('*.py'))}
-    # test helpers imported by their own name (perception_signals), and test subfolders
-    local = {part.removesuffix('.py') for path in scopes['test']
-             for part in path.relative_to(folder / 'test').parts} - set(PACKAGES)
+    # test helpers imported by their own name (perception_signals); a test subfolder's name
+    # is not importable (prepend mode puts the subfolder itself on sys.path), and
+    # forte_driver/test/serial must not hide pyserial's ``serial``
+    local = {path.stem for path in scopes['test']} - set(PACKAGES)
     ignored = sys.stdlib_module_names | local | set(modules)
     found: dict[str, dict[str, set[str]]] = {'runtime': defaultdict(set), 'test': defaultdict(set)}
     for scope, paths in scopes.items():

@@ -4,7 +4,7 @@
   (``/sim/get_state``), the ``real_time_factor`` argument in the sim node's parameter,
   ``tactile/frames`` and ``tactile/state`` flowing, a Grasp goal (FORTE, lift 1 cm)
   accepted and answered with a result;
-- replay: a bag written by :class:`forte_bringup.bags.BagWriter` replayed, perception
+- replay: a bag written by :class:`forte_driver.replay.bags.BagWriter` replayed, perception
   publishing ``tactile/state`` from it;
 - hardware: an emulated sensor and simulated Dynamixel servos on pseudo-terminals, both
   lifecycle nodes ``active``, frames and joint states flowing.

@@ -3,7 +3,7 @@ SIGTERM: exit code 0 within a few seconds, no traceback (the replay thread used 
 after the context was gone), and forte_record finishes its bag.
 
 bag_replay_node is forte_driver's, tested here because the bags are written with
-``forte_bringup.bags`` (see test_bag_replay_node.py for why).
+``forte_driver.replay.bags`` (see test_bag_replay_node.py for why).
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import pytest
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.serialization import serialize_message
 
-from forte_bringup.bags import BagWriter, TopicSpec
+from forte_driver.replay.bags import BagWriter, TopicSpec
 from forte_msgs.msg import TactileFrames
 from forte_ros.testing import NodeProcess, Probe, ros_args, wait_until
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from rclpy.serialization import serialize_message
 
-from forte_bringup.bags import BagWriter, TopicSpec
 from forte_bringup.report import GraspTrace, outcome_table, plot_grasp, traces_from_bag
+from forte_driver.replay.bags import BagWriter, TopicSpec
 from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileState
 
 SECOND = 1_000_000_000

@@ -83,6 +83,7 @@ from forte_control.state_machine import (
     Outcome,
     PerceptionInput,
     WrenchInput,
+    perception_input,
 )
 from forte_msgs.action import Grasp
 from forte_msgs.msg import GraspState as GraspStateMsg
@@ -300,13 +301,7 @@ class GraspControllerNode(GripperCommandMixin, Node):
         if not msg.data_valid:
             self.counters['tactile_invalid'] += 1
         self._slip_pending = self._slip_pending or bool(msg.slip)
-        self._perception = PerceptionInput(
-            stamp=self._stamp(msg.header), force=float(msg.force),
-            force_valid=bool(msg.force_valid),
-            contact=(bool(msg.contact[0]), bool(msg.contact[1])),
-            slip=self._slip_pending, slip_active=bool(msg.slip_active),
-            data_valid=bool(msg.data_valid), filtered=tuple(float(v) for v in msg.filtered),
-            finger_variance=(float(msg.finger_variance[0]), float(msg.finger_variance[1])))
+        self._perception = perception_input(msg, self._stamp(msg.header), slip=self._slip_pending)
         reacting = msg.slip and self._machine.state in (GraspState.LIFTING, GraspState.HOLDING)
         if reacting or (self._step_on_perception and self._machine.state in ACTIVE_STATES):
             outputs = self._step()

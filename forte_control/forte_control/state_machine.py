@@ -37,6 +37,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields, replace
 from enum import IntEnum, IntFlag
+from typing import Any
 
 from forte_control.lift_check import (
     DropDetector,
@@ -265,6 +266,29 @@ class PerceptionInput:
     data_valid: bool = True
     filtered: tuple[float, ...] | None = None   # (6,) tared filtered channels, optional
     finger_variance: tuple[float, float] = (0.0, 0.0)  # [dB^2], reported in feedback
+
+
+def perception_input(state: Any, stamp: float, slip: bool | None = None) -> PerceptionInput:
+    """The controller's view of one perception state.
+
+    Parameters
+    ----------
+    state : forte_msgs.msg.TactileState or forte_perception.pipeline.PerceptionOutput
+        Anything with TactileState's field names (``force``, ``force_valid``, ``contact``,
+        ``slip``, ``slip_active``, ``data_valid``, ``filtered``, ``finger_variance``).
+    stamp : float
+        Sample time of the state's latest sample [s].
+    slip : bool, optional
+        The slip flag to pass on (a node ORs the flags received since its last step);
+        default ``state.slip``.
+    """
+    return PerceptionInput(
+        stamp=stamp, force=float(state.force), force_valid=bool(state.force_valid),
+        contact=(bool(state.contact[0]), bool(state.contact[1])),
+        slip=bool(state.slip) if slip is None else bool(slip),
+        slip_active=bool(state.slip_active), data_valid=bool(state.data_valid),
+        filtered=tuple(float(value) for value in state.filtered),
+        finger_variance=(float(state.finger_variance[0]), float(state.finger_variance[1])))
 
 
 @dataclass(frozen=True)
@@ -1026,5 +1050,5 @@ __all__ = [
     'ACTIVE_STATES', 'PAPER_SLIP_INCREMENT', 'ControlInputs', 'ControlOutputs', 'Controller',
     'ControllerParams', 'DropDetector', 'FaultFlag', 'GraspGoal', 'GraspState',
     'GraspStateMachine', 'JointInput', 'LiftCheckParams', 'Outcome', 'PerceptionInput',
-    'ServoOutput', 'WrenchInput',
+    'ServoOutput', 'WrenchInput', 'perception_input',
 ]

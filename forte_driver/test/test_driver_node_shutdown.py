@@ -18,9 +18,9 @@ from lifecycle_msgs.msg import Transition
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 
-from forte_driver.emulated_sensor import EmulatedSensor
-from forte_driver.protocol import Command
-from forte_driver.simulated_servo import SimulatedServoProcess
+from forte_driver.bench_devices.emulated_sensor import EmulatedSensor
+from forte_driver.bench_devices.simulated_servo import SimulatedServoProcess
+from forte_driver.serial.protocol import Command
 from forte_msgs.msg import TactileFrames
 from forte_ros.testing import NodeProcess, Probe, ros_args, wait_until
 

@@ -14,6 +14,9 @@ depending on each other (they all depend on forte_msgs).
   launch) is refused with ``success=false`` and a warning, and the node keeps running.
 - :mod:`forte_ros.executor_calls`: :func:`call_in_executor`, for action-client calls from
   a thread other than the one spinning the client (ros2/rclpy#1123).
+- :mod:`forte_ros.qos`: the QoS profiles of docs/contracts.md, defined once.
+- :mod:`forte_ros.diagnostics`: :func:`diagnostic_status` and :func:`diagnostic_array`, the
+  one way nodes build ``/diagnostics`` messages.
 - :mod:`forte_ros.testing`: run a node executable as a child process, stop it with a
   signal, check its output (used by the tests of every package).
 """

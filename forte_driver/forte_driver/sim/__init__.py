@@ -1,6 +1,6 @@
 """Simulated FORTE scenes: gripper, fin-ray fingers, pressure sensor, objects, arm lift.
 
-Pure library (no rclpy). Quick start::
+Pure core (no rclpy) in every module but :mod:`.sim_node`, the ROS shell. Quick start::
 
     from forte_driver.sim import make_scene, OBJECTS
     scene = make_scene('grasp', object_name='raspberry', seed=0)

@@ -7,7 +7,6 @@ The load cell (mean of the two finger forces plus its own noise) is the ground t
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -203,81 +202,3 @@ def load_dataset(path: str | Path) -> dict[str, np.ndarray]:
     if len(np.unique(run_ids)) != len(run_ids):
         raise ValueError(f'{path}: trial ids are not contiguous runs')
     return dataset
-
-
-def trial_features(dataset: dict[str, np.ndarray], stride: int = 100
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Force-model inputs as the contract's trainer computes them (needs forte_perception).
-
-    Per trial: tare by the mean of its first ``tare_samples`` samples, causal median 11,
-    the 24 force features at full rate, subsampled every ``stride`` samples after the tare.
-
-    Returns
-    -------
-    features : numpy.ndarray, shape (m, 24)
-    force : numpy.ndarray, shape (m,)
-    groups : numpy.ndarray, shape (m,)
-        Trial id of each row.
-    """
-    from forte_perception.force import force_features
-    from forte_perception.median import RunningMedian
-
-    fs = float(dataset['fs'])
-    tare = int(dataset['tare_samples'])
-    trial = dataset['trial']
-    starts = np.concatenate(([0], np.flatnonzero(np.diff(trial)) + 1, [len(trial)]))
-    features, force, groups = [], [], []
-    for start, stop in zip(starts[:-1], starts[1:], strict=True):
-        raw = dataset['frames'][start:stop].astype(np.float64)
-        baseline = raw[:tare].mean(axis=0)
-        filtered = RunningMedian(11, 6).update(raw) - baseline
-        rows = force_features(filtered, fs=fs)
-        pick = np.arange(tare, stop - start, stride)
-        features.append(rows[pick])
-        force.append(dataset['force'][start:stop][pick].astype(np.float64))
-        groups.append(np.full(pick.size, trial[start]))
-    return np.concatenate(features), np.concatenate(force), np.concatenate(groups)
-
-
-def cross_validate(dataset: dict[str, np.ndarray], folds: int = 10, stride: int = 100,
-                   C: float = 10.0, epsilon: float = 0.02, kind: str = 'history',
-                   seed: int = 0) -> dict[str, float]:
-    """Trial-wise k-fold cross-validation of the force model on a calibration dataset.
-
-    Whole trials are held out (never split between training and test). Uses
-    ``forte_perception.force.ForceModel`` (RBF SVR).
-
-    Returns
-    -------
-    dict
-        ``rmse`` [N] over all held-out rows, ``rmse_per_fold`` (list), ``mae`` [N],
-        ``force_min`` / ``force_max`` [N], ``rows``, ``trials``, ``folds``.
-    """
-    from forte_perception.force import ForceModel
-
-    features, force, groups = trial_features(dataset, stride=stride)
-    trials = np.unique(groups)
-    if len(trials) < folds:
-        raise ValueError(f'{len(trials)} trials cannot make {folds} folds')
-    order = np.random.default_rng(seed).permutation(trials)
-    assignment = {int(trial): index % folds for index, trial in enumerate(order)}
-    fold_of_row = np.array([assignment[int(g)] for g in groups])
-    errors = np.empty_like(force)
-    per_fold = []
-    for fold in range(folds):
-        test = fold_of_row == fold
-        train = features[~test] if kind == 'history' else features[~test][:, :6]
-        model = ForceModel.fit(train, force[~test], C=C, epsilon=epsilon, kind=kind)
-        predicted = model.predict(features[test])
-        errors[test] = predicted - force[test]
-        per_fold.append(float(math.sqrt(np.mean(errors[test] ** 2))))
-    return {
-        'rmse': float(math.sqrt(np.mean(errors ** 2))),
-        'rmse_per_fold': per_fold,
-        'mae': float(np.mean(np.abs(errors))),
-        'force_min': float(force.min()),
-        'force_max': float(force.max()),
-        'rows': int(len(force)),
-        'trials': int(len(trials)),
-        'folds': int(folds),
-    }

@@ -3,7 +3,9 @@
 Examples::
 
     forte_sim_dataset --output calibration.npz            # 6 indentors x 40 trials
-    forte_sim_dataset --quick --output quick.npz --cross-validate
+    forte_sim_dataset --quick --output quick.npz
+
+Training and cross-validation on the file: ``forte_train_force`` (forte_perception).
 """
 from __future__ import annotations
 
@@ -16,7 +18,6 @@ from dataclasses import replace
 from .dataset import (
     QUICK_PROTOCOL,
     CalibrationProtocol,
-    cross_validate,
     generate_calibration_dataset,
     save_dataset,
 )
@@ -37,12 +38,6 @@ def build_parser() -> argparse.ArgumentParser:
                         help='override the hold time after closing [s]')
     parser.add_argument('--seed', type=int, default=0, help='seed of the campaign')
     parser.add_argument('--uncompressed', action='store_true', help='write without deflate')
-    parser.add_argument('--cross-validate', action='store_true',
-                        help='report the 10-fold trial-wise CV RMSE of the force model '
-                             '(needs forte_perception)')
-    parser.add_argument('--folds', type=int, default=10, help='CV folds (default 10)')
-    parser.add_argument('--stride', type=int, default=100,
-                        help='feature subsampling for CV [samples] (default 100 = 20 Hz)')
     return parser
 
 
@@ -79,9 +74,6 @@ def main(argv: list[str] | None = None) -> int:
         'force_max': float(dataset['force'].max()),
         'simulation_seconds': round(simulated, 2),
     }
-    if args.cross_validate:
-        result = cross_validate(dataset, folds=args.folds, stride=args.stride)
-        report['cross_validation'] = result
     print(json.dumps(report, indent=2))
     return 0
 

@@ -4,6 +4,7 @@ import time
 
 import pytest
 
+from forte_driver.bench_devices.simulated_servo import SimulatedServoProcess
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import protocol as proto
 from forte_driver.dynamixel import units
@@ -14,7 +15,6 @@ from forte_driver.dynamixel.gripper import (
     GripperLimits,
     check_command,
 )
-from forte_driver.simulated_servo import SimulatedServoProcess
 
 LIMITS = GripperLimits(theta_min=0.0, theta_max=1.0, current_limit=1.0,
                        velocity_limit=4.796, temperature_limit=70)

@@ -11,6 +11,8 @@ the simulated XM430-W350 pair, which injects each error kind on demand.
 import pytest
 from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, PacketHandler
 
+from forte_driver.bench_devices.servo_faults import StatusFaults
+from forte_driver.bench_devices.simulated_servo import SimulatedServoProcess
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import protocol as proto
 from forte_driver.dynamixel.gripper import (
@@ -20,9 +22,7 @@ from forte_driver.dynamixel.gripper import (
     GripperLimits,
     StatusError,
 )
-from forte_driver.dynamixel.servo_faults import StatusFaults
 from forte_driver.dynamixel.status_errors import StatusErrorCounts, status_error_kinds
-from forte_driver.simulated_servo import SimulatedServoProcess
 
 ERROR_NUMBERS = {1: 'result fail', 2: 'instruction error', 3: 'CRC error',
                  4: 'data range error', 5: 'data length error', 6: 'data limit error',
