@@ -10,7 +10,8 @@ the root conftest.
 Usage: ``python tools/run_tests.py [pytest args...]`` from the repository root (``make
 test-python``). Prints a line per file, a line per top-level folder (for a ROS package, the
 count ``colcon test`` reports for it) and a closing ``N passed, N failed, N skipped`` line;
-exits non-zero if any test failed or errored, or a file could not be collected.
+exits non-zero if any test failed or errored, a file could not be collected, or a file
+collected no test at all (pytest's exit 5: a renamed test module must not pass silently).
 """
 from __future__ import annotations
 
@@ -23,6 +24,8 @@ import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+#: pytest's exit code when a file collects no test (every test deselected or none written).
+NO_TESTS_COLLECTED = 5
 
 
 def test_files() -> list[Path]:
@@ -45,8 +48,23 @@ def counts_from_junit(report: Path) -> dict[str, int]:
     return totals
 
 
-def main(pytest_args: list[str]) -> int:
-    files = test_files()
+def selects_tests(pytest_args: list[str]) -> bool:
+    """True if ``pytest_args`` select a subset (``-k``, ``-m``): then a file may rightly
+    collect nothing."""
+    return any(arg in ('-k', '-m') or arg.startswith(('-k=', '-m=')) for arg in pytest_args)
+
+
+def main(pytest_args: list[str], files: list[Path] | None = None, root: Path = ROOT) -> int:
+    """Run each test file (default: :func:`test_files`) in its own pytest process.
+
+    Returns
+    -------
+    int
+        0 if every file passed; 1 if a test failed or errored, a file could not be
+        collected, or a file collected no test without ``-k``/``-m`` selecting.
+    """
+    files = test_files() if files is None else files
+    empty_allowed = selects_tests(pytest_args)
     passed = failed = skipped = 0
     per_package: dict[str, list[int]] = {}
     broken: list[str] = []
@@ -54,11 +72,11 @@ def main(pytest_args: list[str]) -> int:
     with tempfile.TemporaryDirectory() as folder:
         for index, path in enumerate(files):
             report = Path(folder) / f'{index}.xml'
-            relative = path.relative_to(ROOT)
+            relative = path.relative_to(root)
             begin = time.monotonic()
             result = subprocess.run(
                 [sys.executable, '-m', 'pytest', str(relative), '-q', '-p', 'no:cacheprovider',
-                 f'--junitxml={report}', *pytest_args], cwd=ROOT)
+                 f'--junitxml={report}', *pytest_args], cwd=root)
             counts = counts_from_junit(report)
             file_failed = counts['failures'] + counts['errors']
             file_passed = counts['tests'] - file_failed - counts['skipped']
@@ -69,7 +87,10 @@ def main(pytest_args: list[str]) -> int:
             package[0] += file_passed
             package[1] += file_failed
             package[2] += counts['skipped']
-            if result.returncode not in (0, 5) or file_failed:
+            if result.returncode == NO_TESTS_COLLECTED and not empty_allowed:
+                broken.append(f'{relative} (exit 5: no test collected, a file that tests '
+                              f'nothing is a failure)')
+            elif result.returncode not in (0, NO_TESTS_COLLECTED) or file_failed:
                 broken.append(f'{relative} (exit {result.returncode})')
             print(f'[tests] {relative}: {file_passed} passed, {file_failed} failed, '
                   f'{counts["skipped"]} skipped in {time.monotonic() - begin:.1f} s', flush=True)

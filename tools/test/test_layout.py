@@ -1,0 +1,159 @@
+"""The layout rules of docs/architecture.md, checked on every tracked file.
+
+- Size: no file over 600 lines and no function over 80 lines outside tests and generated
+  code (Python by its syntax tree; C by its top-level function bodies).
+- Import direction: a package imports only the packages below it in the graph of
+  docs/architecture.md (forte_msgs <- forte_driver, forte_perception, forte_control <-
+  forte_bringup), at run time and in its tests.
+- Pure core, thin shell: rclpy and ROS message packages only in the ROS shell modules
+  (``*_node.py`` and the node parts named in :data:`ROS_SHELL_PARTS`).
+"""
+from __future__ import annotations
+
+import ast
+import re
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+MAX_FILE_LINES = 600
+MAX_FUNCTION_LINES = 80
+
+#: Who may import whom (top-level import names; forte_ros is installed by forte_msgs).
+ALLOWED_IMPORTS = {
+    'forte_msgs': {'forte_msgs', 'forte_ros'},
+    'forte_driver': {'forte_driver', 'forte_msgs', 'forte_ros'},
+    'forte_perception': {'forte_perception', 'forte_msgs', 'forte_ros'},
+    'forte_control': {'forte_control', 'forte_msgs', 'forte_ros'},
+    'forte_bringup': {'forte_bringup', 'forte_driver', 'forte_perception', 'forte_control',
+                      'forte_msgs', 'forte_ros'},
+}
+PROJECT_MODULES = {'forte_msgs', 'forte_ros', 'forte_driver', 'forte_perception',
+                   'forte_control', 'forte_bringup'}
+#: Import names that make a module part of the ROS shell.
+ROS_IMPORTS = re.compile(r'^(rclpy|launch|launch_ros|rosidl_\w+|rcl_interfaces|\w+_msgs|'
+                         r'\w+_srvs|forte_ros)$')
+#: Modules besides ``*_node.py`` that belong to a node's ROS shell, with the reason.
+ROS_SHELL_PARTS = {
+    'forte_driver/forte_driver/serial/serial_sensor_parameters.py':
+        'the serial sensor node\'s ROS parameter declarations and their validation',
+    'forte_control/forte_control/node_parameters.py':
+        'the controller node\'s ROS parameter declarations, from the core\'s ranges',
+    'forte_control/forte_control/gripper_command.py':
+        'the controller node\'s control_msgs/GripperCommand action server (a node mixin)',
+}
+#: Core packages: pure Python below the ROS shell (forte_bringup is ROS glue throughout).
+CORE_PACKAGES = ('forte_driver', 'forte_perception', 'forte_control')
+
+
+def tracked(*patterns: str) -> list[Path]:
+    """Files git tracks matching ``patterns``, as they are in the working tree."""
+    names = subprocess.run(['git', 'ls-files', *patterns], cwd=ROOT, capture_output=True,
+                           text=True, check=True).stdout.split()
+    return [ROOT / name for name in names if (ROOT / name).is_file()]
+
+
+def is_test_or_generated(path: Path) -> bool:
+    """Test code (test folders, test modules, conftest) or generated code (build output)."""
+    parts = path.relative_to(ROOT).parts
+    return (bool({'test', 'tests', 'test_vectors', 'build', 'install'} & set(parts[:-1]))
+            or parts[-1].startswith('test_') or parts[-1] == 'conftest.py')
+
+
+def python_functions(path: Path) -> list[tuple[str, int, int]]:
+    """``(qualified name, first line, length in lines)`` of every function in ``path``."""
+    found = []
+
+    def visit(node: ast.AST, prefix: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                name = f'{prefix}{child.name}'
+                if not isinstance(child, ast.ClassDef):
+                    first = min([child.lineno, *(d.lineno for d in child.decorator_list)])
+                    found.append((name, first, child.end_lineno - first + 1))
+                visit(child, f'{name}.')
+
+    visit(ast.parse(path.read_text(), filename=str(path)), '')
+    return found
+
+
+def c_functions(path: Path) -> list[tuple[str, int, int]]:
+    """``(name, first line, length)`` of each top-level C function: a line that opens a
+    brace at column 0 after a signature, to the matching ``}`` at column 0."""
+    lines = path.read_text().splitlines()
+    found, start = [], None
+    for index, line in enumerate(lines):
+        if line.startswith('{') and index > 0:
+            signature = lines[index - 1] if '(' in lines[index - 1] else ''
+            start = (index - 1, re.findall(r'(\w+)\s*\(', signature)[:1] or ['?'])
+        elif line.startswith('}') and start is not None:
+            found.append((start[1][0], start[0] + 1, index - start[0] + 1))
+            start = None
+    return found
+
+
+def sources() -> list[Path]:
+    return [path for path in tracked('*.py', '*.c', '*.h', '*.cpp')
+            if not is_test_or_generated(path)]
+
+
+def test_no_file_over_600_lines():
+    too_long = [f'{path.relative_to(ROOT)}: {count} lines'
+                for path in sources()
+                if (count := len(path.read_text().splitlines())) > MAX_FILE_LINES]
+    assert not too_long, 'split these files along their concerns:\n' + '\n'.join(too_long)
+
+
+def test_no_function_over_80_lines():
+    too_long = []
+    for path in sources():
+        functions = python_functions(path) if path.suffix == '.py' else c_functions(path)
+        too_long += [f'{path.relative_to(ROOT)}:{line} {name}: {length} lines'
+                     for name, line, length in functions if length > MAX_FUNCTION_LINES]
+    assert not too_long, 'split these functions into named steps:\n' + '\n'.join(too_long)
+
+
+def imported_names(path: Path) -> set[str]:
+    """Top-level names of the absolute imports anywhere in ``path``."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            names.update(alias.name.split('.')[0] for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module.split('.')[0])
+    return names
+
+
+@pytest.mark.parametrize('package', sorted(ALLOWED_IMPORTS))
+def test_imports_follow_the_package_graph(package):
+    wrong = []
+    for path in tracked(f'{package}/*.py'):
+        forbidden = (imported_names(path) & PROJECT_MODULES) - ALLOWED_IMPORTS[package]
+        wrong += [f'{path.relative_to(ROOT)} imports {name}' for name in sorted(forbidden)]
+    assert not wrong, ('these imports go against docs/architecture.md\'s package graph:\n'
+                       + '\n'.join(wrong))
+
+
+@pytest.mark.parametrize('package', CORE_PACKAGES)
+def test_ros_only_in_the_shell(package):
+    wrong = []
+    for path in tracked(f'{package}/{package}/*.py'):
+        relative = str(path.relative_to(ROOT))
+        if path.name.endswith('_node.py') or relative in ROS_SHELL_PARTS:
+            continue
+        ros = sorted(name for name in imported_names(path) if ROS_IMPORTS.match(name))
+        wrong += [f'{relative} imports {", ".join(ros)}'] if ros else []
+    assert not wrong, ('the pure core must not import ROS (move the code into the node or '
+                       'name the module in ROS_SHELL_PARTS with a reason):\n' + '\n'.join(wrong))
+
+
+def test_the_checks_see_what_they_judge():
+    """The scanners find known functions (a check that reads nothing passes anything)."""
+    names = {name for name, _, _ in python_functions(Path(__file__))}
+    assert {'tracked', 'python_functions', 'test_no_function_over_80_lines'} <= names
+    c_files = [path for path in sources() if path.suffix == '.c']
+    assert c_files and any(c_functions(path) for path in c_files)
+    assert len(sources()) > 50
+    assert any(ROS_IMPORTS.match(name) for name in ('rclpy', 'diagnostic_msgs', 'std_srvs'))
