@@ -3,15 +3,15 @@
 Every FORTE publisher and subscriber on a contract topic takes its profile from here, so a
 change to the contract is a change to this file and the table, nothing else.
 
-| profile | topics | policy |
-|---|---|---|
-| :data:`SENSOR_FRAMES` | ``tactile/frames`` (default) | best effort, volatile, keep last 50 |
-| :data:`RELIABLE_FRAMES` | ``tactile/frames`` with ``reliable:=true`` | reliable, volatile, keep last 50 |
-| :data:`TACTILE_STATE` | ``tactile/state`` | reliable, keep last 50 |
-| :data:`COMMANDS` | ``gripper/command``, ``joint_states``, ``arm/cmd_vel`` | reliable, keep last 10 |
-| :data:`GRASP_STATE` | ``grasp/state`` | reliable, transient local, keep last 1 |
-| :data:`GROUND_TRUTH` | ``sim/ground_truth`` | reliable, keep last 50 |
-| :data:`DIAGNOSTICS` | ``/diagnostics`` | reliable, keep last 10 |
+- :data:`SENSOR_FRAMES`: ``tactile/frames`` by default; best effort, volatile, keep last 50.
+- :data:`RELIABLE_FRAMES`: ``tactile/frames`` from a driver with ``reliable:=true``;
+  reliable, volatile, keep last 50.
+- :data:`TACTILE_STATE`: ``tactile/state``; reliable, keep last 50.
+- :data:`COMMANDS`: ``gripper/command``, ``joint_states``, ``arm/cmd_vel``; reliable, keep
+  last 10.
+- :data:`GRASP_STATE`: ``grasp/state``; reliable, transient local, keep last 1.
+- :data:`GROUND_TRUTH`: ``sim/ground_truth``; reliable, keep last 50.
+- :data:`DIAGNOSTICS`: ``/diagnostics``; reliable, keep last 10.
 
 :func:`reliable` is for the few places that need a deeper reliable queue than the contract's
 (a bag replayed faster than real time, a recorder, a benchmark's probe).

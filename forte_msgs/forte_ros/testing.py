@@ -174,8 +174,86 @@ def wait_until(condition: Callable[[], Any], timeout: float = 20.0,
     return condition()
 
 
-class Probe:
-    """An rclpy node in its own context, spun in a thread: counts messages, calls services.
+class SpinningGraph:
+    """Nodes of one test in a private context, spun by one SingleThreadedExecutor in a thread.
+
+    The set-up every in-process node test needs: a context of its own (tests in one process
+    never share DDS state), a listener node for the test's subscriptions, a spinning thread,
+    and a close that stops the thread before the nodes are destroyed. Single-threaded: rclpy
+    7.1.6's MultiThreadedExecutor re-dispatches ready work in a loop (ros2/rclpy#1452).
+
+    Parameters
+    ----------
+    name : str
+        Node name of the listener (the test's own node, :attr:`node`).
+
+    Examples
+    --------
+    >>> graph = SpinningGraph()
+    >>> driver = graph.add(SerialSensorNode(context=graph.context))
+    >>> frames = graph.collect(TactileFrames, 'tactile/frames', qos)
+    >>> graph.start(); wait_until(lambda: frames); graph.close()
+    """
+
+    def __init__(self, name: str = 'forte_test_listener') -> None:
+        check_isolated_network()
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node(name, context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._nodes = [self.node]
+        self._closing = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def add(self, node: Any) -> Any:
+        """Spin ``node`` (created with ``context=self.context``) too; returns it."""
+        self.executor.add_node(node)
+        self._nodes.append(node)
+        return node
+
+    def collect(self, message_type: type, topic: str, qos: QoSProfile | int = 10,
+                arrival_times: bool = False) -> list:
+        """A list that receives every message on ``topic`` (``(time.monotonic(), message)``
+        pairs with ``arrival_times``)."""
+        received: list = []
+        if arrival_times:
+            self.node.create_subscription(
+                message_type, topic, lambda message: received.append((time.monotonic(), message)),
+                qos)
+        else:
+            self.node.create_subscription(message_type, topic, received.append, qos)
+        return received
+
+    def start(self) -> SpinningGraph:
+        """Start spinning in a daemon thread; returns self."""
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+        return self
+
+    def _spin(self) -> None:
+        while not self._closing.is_set() and self.context.ok():
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def close(self) -> None:
+        """Stop spinning, destroy every node (last added first), shut the context down."""
+        self._closing.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+        self.executor.shutdown(timeout_sec=1.0)
+        for node in reversed(self._nodes):
+            node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+    def __enter__(self) -> SpinningGraph:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+class Probe(SpinningGraph):
+    """A spinning node of its own that counts messages and calls services.
 
     Parameters
     ----------
@@ -184,21 +262,10 @@ class Probe:
     """
 
     def __init__(self, name: str = 'forte_test_probe') -> None:
-        check_isolated_network()
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
-        self.node = rclpy.create_node(name, context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
+        super().__init__(name)
         self.counts: dict[str, int] = {}
         self._clients: dict[tuple[type, str], Any] = {}
-        self._closing = threading.Event()
-        self._thread = threading.Thread(target=self._spin, daemon=True)
-        self._thread.start()
-
-    def _spin(self) -> None:
-        while not self._closing.is_set():
-            self.executor.spin_once(timeout_sec=0.05)
+        self.start()
 
     def count(self, message_type: type, topic: str, qos: QoSProfile | int = 10) -> None:
         """Count the messages on ``topic`` in ``counts[topic]``."""
@@ -235,17 +302,3 @@ class Probe:
         """``<node>/get_state``: the label of the current state, or None without an answer."""
         response = self.call(GetState, f'{node}/get_state', GetState.Request())
         return None if response is None else response.current_state.label
-
-    def close(self) -> None:
-        """Stop spinning and shut the probe's context down."""
-        self._closing.set()
-        self._thread.join(timeout=5.0)
-        self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-
-    def __enter__(self) -> Probe:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()

@@ -1,0 +1,85 @@
+"""forte_ros.qos against docs/contracts.md's table; diagnostics and the test graph for real.
+
+The QoS test reads the contract's table itself (the topic rows and their QoS column), so a
+profile that drifts from the document fails here, whichever side changed.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import rclpy
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+from std_msgs.msg import String
+
+from forte_ros import diagnostics, qos
+from forte_ros.testing import SpinningGraph, wait_until
+
+CONTRACTS = Path(__file__).resolve().parents[2] / 'docs' / 'contracts.md'
+
+
+def contract_qos() -> dict[str, str]:
+    """``{topic: QoS text}`` from the topics table of docs/contracts.md."""
+    rows = {}
+    for line in CONTRACTS.read_text().splitlines():
+        cells = [cell.strip() for cell in line.strip().strip('|').split('|')]
+        if len(cells) == 4 and cells[0].startswith('`') and 'keep last' in cells[2]:
+            rows[cells[0].strip('`')] = cells[2]
+    return rows
+
+
+PROFILE_OF_TOPIC = {
+    'tactile/frames': qos.SENSOR_FRAMES, 'tactile/state': qos.TACTILE_STATE,
+    'gripper/command': qos.COMMANDS, 'joint_states': qos.COMMANDS,
+    'arm/cmd_vel': qos.COMMANDS, 'grasp/state': qos.GRASP_STATE,
+    'sim/ground_truth': qos.GROUND_TRUTH, '/diagnostics': qos.DIAGNOSTICS,
+}
+
+
+def test_every_contract_topic_has_its_documented_profile():
+    table = contract_qos()
+    assert set(table) == set(PROFILE_OF_TOPIC)
+    for topic, text in table.items():
+        profile = PROFILE_OF_TOPIC[topic]
+        depth = int(re.search(r'keep last (\d+)', text).group(1))
+        assert profile.depth == depth, topic
+        best_effort = 'best effort' in text
+        assert (profile.reliability == ReliabilityPolicy.BEST_EFFORT) == best_effort, topic
+        transient = 'transient local' in text
+        assert (profile.durability == DurabilityPolicy.TRANSIENT_LOCAL) == transient, topic
+    assert 'reliable:=true' in table['tactile/frames']
+    assert qos.frames_profile(True).reliability == ReliabilityPolicy.RELIABLE
+    assert qos.frames_profile(True).depth == qos.SENSOR_FRAMES.depth
+    assert qos.frames_profile(False) is qos.SENSOR_FRAMES
+
+
+def test_diagnostics_builder_keeps_order_and_converts_values():
+    status = diagnostics.diagnostic_status('node: part', diagnostics.WARN, 'slow',
+                                           {'rate_hz': 1999.5, 'dropped': 3, 'port': '/dev/x'},
+                                           hardware_id='forte')
+    assert status.level == DiagnosticStatus.WARN and status.hardware_id == 'forte'
+    assert [(kv.key, kv.value) for kv in status.values] == [
+        ('rate_hz', '1999.5'), ('dropped', '3'), ('port', '/dev/x')]
+    array = diagnostics.diagnostic_array(Time(sec=12, nanosec=5), [status])
+    assert isinstance(array, DiagnosticArray)
+    assert (array.header.stamp.sec, array.header.stamp.nanosec) == (12, 5)
+    assert array.status == [status]
+
+
+def test_spinning_graph_delivers_real_messages_and_closes():
+    graph = SpinningGraph('forte_test_talker_listener')
+    talker = graph.add(rclpy.create_node('forte_test_talker', context=graph.context))
+    publisher = talker.create_publisher(String, 'forte_test/chatter', qos.reliable(10))
+    received = graph.collect(String, 'forte_test/chatter', qos.reliable(10))
+    stamped = graph.collect(String, 'forte_test/chatter', qos.reliable(10), arrival_times=True)
+    graph.start()
+    assert wait_until(lambda: publisher.get_subscription_count() == 2, 10.0)
+    for index in range(5):
+        publisher.publish(String(data=f'message {index}'))
+    assert wait_until(lambda: len(received) == 5 and len(stamped) == 5, 10.0)
+    assert [message.data for message in received] == [f'message {i}' for i in range(5)]
+    assert all(isinstance(arrival, float) for arrival, _ in stamped)
+    graph.close()
+    assert not graph.context.ok()
