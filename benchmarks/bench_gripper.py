@@ -11,10 +11,12 @@ latency of a real U2D2 is not). Three comparisons:
 3. host CPU share while sampling: blocking 1 ms serial reads (the driver's port setup) vs
    the SDK's default busy poll.
 
-Run: ``python benchmarks/bench_gripper.py`` (about 30 s).
+Run: ``python benchmarks/bench_gripper.py`` (about 16 s; ``--duration`` sets the seconds of
+each of the five measurements, default 3).
 """
 from __future__ import annotations
 
+import argparse
 import time
 
 from dynamixel_sdk import COMM_SUCCESS
@@ -44,7 +46,8 @@ def rate(operation, duration: float = DURATION_S) -> tuple[float, float, int]:
     return count / wall, (time.process_time() - cpu_start) / wall, failures
 
 
-def main() -> None:
+def run(duration: float = DURATION_S) -> None:
+    """Measure and print the three comparisons, each operation for ``duration`` s."""
     with SimulatedServoProcess(ids=(1, 2)) as bus:
         gripper = Gripper(GripperConfig(port=bus.device_path))
         gripper.open()
@@ -91,19 +94,19 @@ def main() -> None:
 
         print('gripper bus benchmark (dynamixel-sdk over a pty, simulated XM430-W350 pair '
               'in its own process, 4 Mbaud, return delay 500 us)')
-        sync_rate, sync_cpu, sync_fail = rate(sync_read)
-        base_rate, base_cpu, base_fail = rate(individual_reads)
+        sync_rate, sync_cpu, sync_fail = rate(sync_read, duration)
+        base_rate, base_cpu, base_fail = rate(individual_reads, duration)
         print(f'state of both fingers: sync read {sync_rate:8.1f} samples/s '
               f'(failed {sync_fail}) | baseline 8 individual reads {base_rate:8.1f} samples/s '
               f'(failed {base_fail}) | ratio {sync_rate / base_rate:5.2f}x')
-        write_rate, _, write_fail = rate(sync_write)
-        base_write_rate, _, base_write_fail = rate(individual_writes)
+        write_rate, _, write_fail = rate(sync_write, duration)
+        base_write_rate, _, base_write_fail = rate(individual_writes, duration)
         print(f'command of both fingers: sync write {write_rate:8.1f} commands/s '
               f'(failed {write_fail}) | baseline 6 individual writes {base_write_rate:8.1f} '
               f'commands/s (failed {base_write_fail}) | ratio '
               f'{write_rate / base_write_rate:5.2f}x')
         port.ser.timeout = 0  # the SDK's own setting: busy poll
-        spin_rate, spin_cpu, spin_fail = rate(sync_read)
+        spin_rate, spin_cpu, spin_fail = rate(sync_read, duration)
         blocking_ms = 1000.0 * sync_cpu / sync_rate
         spin_ms = 1000.0 * spin_cpu / spin_rate
         print(f'host CPU per state sample: blocking 1 ms reads {blocking_ms:6.3f} ms '
@@ -113,6 +116,14 @@ def main() -> None:
         print(f'100 Hz joint_states need {100 / sync_rate * 100:.0f} % of the bus time '
               f'with sync reads, {100 / base_rate * 100:.0f} % with individual reads')
         gripper.close()
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Command line: ``[--duration SECONDS]``."""
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('--duration', type=float, default=DURATION_S,
+                        help=f'seconds of each measurement (default {DURATION_S})')
+    run(parser.parse_args(argv).duration)
 
 
 if __name__ == '__main__':

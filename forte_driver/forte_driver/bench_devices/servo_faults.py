@@ -1,4 +1,4 @@
-"""Status error injection for the simulated XM430-W350 bus (:mod:`.simulated_servo`).
+"""Status error injection for the simulated XM430-W350 bus (:mod:`.simulated_servo_bus`).
 
 A test asks for an error number (1 result fail .. 7 access error, or any other 1..127) in
 the status packets one servo sends in reply to one instruction (``'ping'``, ``'read'``,

@@ -132,6 +132,14 @@ def _ro(name, address, size, default=0, signed=False) -> Register:
     return Register(name, address, size, False, signed, default=default)
 
 
+GAIN_MAXIMUM = 16383
+"""Largest value of every PID and feedforward gain item (all are 2 bytes, 0..16383)."""
+
+
+def _gain(name, address, default) -> Register:
+    return _rw(name, address, 2, 0, GAIN_MAXIMUM, default)
+
+
 MODEL_NUMBER = _ro('Model Number', 0, 2, MODEL_NUMBER_XM430_W350)
 MODEL_INFORMATION = _ro('Model Information', 2, 4)
 FIRMWARE_VERSION = _ro('Firmware Version', 6, 1, FIRMWARE_VERSION_SIMULATED)
@@ -160,13 +168,13 @@ LED = _rw('LED', 65, 1, 0, 1, 0)
 STATUS_RETURN_LEVEL = _rw('Status Return Level', 68, 1, 0, 2, 2)
 REGISTERED_INSTRUCTION = _ro('Registered Instruction', 69, 1)
 HARDWARE_ERROR_STATUS = _ro('Hardware Error Status', 70, 1)
-VELOCITY_I_GAIN = _rw('Velocity I Gain', 76, 2, 0, 16383, 1920)
-VELOCITY_P_GAIN = _rw('Velocity P Gain', 78, 2, 0, 16383, 100)
-POSITION_D_GAIN = _rw('Position D Gain', 80, 2, 0, 16383, 0)
-POSITION_I_GAIN = _rw('Position I Gain', 82, 2, 0, 16383, 0)
-POSITION_P_GAIN = _rw('Position P Gain', 84, 2, 0, 16383, 800)
-FEEDFORWARD_2ND_GAIN = _rw('Feedforward 2nd Gain', 88, 2, 0, 16383, 0)
-FEEDFORWARD_1ST_GAIN = _rw('Feedforward 1st Gain', 90, 2, 0, 16383, 0)
+VELOCITY_I_GAIN = _gain('Velocity I Gain', 76, 1920)
+VELOCITY_P_GAIN = _gain('Velocity P Gain', 78, 100)
+POSITION_D_GAIN = _gain('Position D Gain', 80, 0)
+POSITION_I_GAIN = _gain('Position I Gain', 82, 0)
+POSITION_P_GAIN = _gain('Position P Gain', 84, 800)
+FEEDFORWARD_2ND_GAIN = _gain('Feedforward 2nd Gain', 88, 0)
+FEEDFORWARD_1ST_GAIN = _gain('Feedforward 1st Gain', 90, 0)
 BUS_WATCHDOG = _rw('Bus Watchdog', 98, 1, 0, 127, 0)
 GOAL_PWM = _rw('Goal PWM', 100, 2, -885, 885, 0, signed=True)
 GOAL_CURRENT = _rw('Goal Current', 102, 2, -1193, 1193, 0, signed=True)

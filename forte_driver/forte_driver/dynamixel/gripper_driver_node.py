@@ -24,20 +24,13 @@ Set ``autostart:=true`` to configure and activate at start without a lifecycle m
 """
 from __future__ import annotations
 
-import math
 import time
 from typing import Any
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
-    ParameterDescriptor,
-    SetParametersResult,
-)
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
 from rclpy.lifecycle import LifecycleState, TransitionCallbackReturn
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 from forte_driver.dynamixel import control_table as ct
@@ -47,40 +40,24 @@ from forte_driver.dynamixel.gripper import (
     FingerState,
     Gripper,
     GripperConfig,
-    GripperLimits,
     StatusError,
+)
+from forte_driver.dynamixel.gripper_driver_parameters import (
+    HARDWARE_PARAMETERS,
+    LEFT_JOINT,
+    PARAMETERS,
+    RIGHT_JOINT,
+    gripper_config,
 )
 from forte_msgs.msg import ServoCommand
 from forte_ros import ForteLifecycleNode, run_node
+from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
+from forte_ros.qos import COMMANDS, DIAGNOSTICS
 
-LEFT_JOINT = 'forte_left_finger_joint'
-RIGHT_JOINT = 'forte_right_finger_joint'
 TEMPERATURE_WARNING_MARGIN_C = 5.0
 """Diagnostics warn when a servo is this close to its Temperature Limit [degC]."""
 READ_FAILURES_FOR_ERROR = 3
 """Consecutive failed state reads after which diagnostics report an error."""
-
-#: Parameters that describe the hardware; changeable only while unconfigured.
-HARDWARE_PARAMETERS = (
-    'port', 'baud_rate', 'right_id', 'left_id', 'right_zero_position', 'left_zero_position',
-    'right_direction', 'left_direction', 'theta_min', 'theta_max', 'current_limit',
-    'velocity_limit', 'temperature_limit', 'profile_acceleration', 'publish_rate',
-    'diagnostics_rate',
-)
-
-
-def _reliable(depth: int) -> QoSProfile:
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
-                      reliability=ReliabilityPolicy.RELIABLE)
-
-
-def _float_range(low: float, high: float) -> list[FloatingPointRange]:
-    return [FloatingPointRange(from_value=low, to_value=high, step=0.0)]
-
-
-def _int_range(low: int, high: int, step: int = 1) -> list[IntegerRange]:
-    return [IntegerRange(from_value=low, to_value=high, step=step)]
-
 
 class GripperDriverNode(ForteLifecycleNode):
     """The FORTE gripper driver (lifecycle node ``gripper_driver``)."""
@@ -95,7 +72,7 @@ class GripperDriverNode(ForteLifecycleNode):
         self._command_subscription = None
         self._joint_publisher = None
         self._diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, '/diagnostics', _reliable(10))
+            DiagnosticArray, '/diagnostics', DIAGNOSTICS)
         self._state_timer = None
         self._diagnostics_timer = None
         self._last_state: dict[str, FingerState] | None = None
@@ -118,91 +95,14 @@ class GripperDriverNode(ForteLifecycleNode):
 
     # -- parameters ------------------------------------------------------------------
     def _declare_parameters(self) -> None:
-        hardware = ' (hardware parameter: change it only while unconfigured)'
-        declare = self.declare_parameter
-        declare('port', '/dev/ttyUSB0', ParameterDescriptor(
-            description='serial device of the U2D2 / DYNAMIXEL bus (use a udev name)'
-                        + hardware))
-        declare('baud_rate', 4_000_000, ParameterDescriptor(
-            description='bus speed [bit/s]; must equal the servos\' Baud Rate register; one of '
-                        f'{sorted(ct.REGISTER_BY_BAUD_RATE)}' + hardware,
-            integer_range=_int_range(9_600, 4_500_000)))
-        for side, servo_id, direction in (('right', 1, 1), ('left', 2, -1)):
-            declare(f'{side}_id', servo_id, ParameterDescriptor(
-                description=f'DYNAMIXEL id of the {side} finger servo' + hardware,
-                integer_range=_int_range(0, 252)))
-            declare(f'{side}_zero_position', 2048, ParameterDescriptor(
-                description=f'raw position [pulse, 0.088 deg] of the {side} servo when the '
-                            'gripper is fully closed (theta = 0)' + hardware,
-                integer_range=_int_range(0, 4095)))
-            declare(f'{side}_direction', direction, ParameterDescriptor(
-                description=f'+1 if the {side} servo\'s raw position grows as theta opens, '
-                            '-1 if mirrored' + hardware,
-                integer_range=_int_range(-1, 1, 2)))
-        declare('theta_min', 0.0, ParameterDescriptor(
-            description='smallest gripper angle [rad] (0 = fully closed); written to the '
-                        'servos\' position limit registers' + hardware,
-            floating_point_range=_float_range(-math.pi, math.pi)))
-        declare('theta_max', 1.0, ParameterDescriptor(
-            description='largest gripper angle [rad] (open); written to the servos\' position '
-                        'limit registers' + hardware,
-            floating_point_range=_float_range(-math.pi, math.pi)))
-        declare('current_limit', 1.0, ParameterDescriptor(
-            description='Current Limit written to both servos [A] (2.69 mA units, max '
-                        '3.209 A); the servos refuse larger goal currents' + hardware,
-            floating_point_range=_float_range(0.00269, 3.20917)))
-        declare('velocity_limit', 4.796, ParameterDescriptor(
-            description='Velocity Limit written to both servos [rad/s] (0.229 rpm units)'
-                        + hardware,
-            floating_point_range=_float_range(0.024, 24.5)))
-        declare('temperature_limit', 70, ParameterDescriptor(
-            description='Temperature Limit written to both servos [degC]; overheating '
-                        'error above it' + hardware,
-            integer_range=_int_range(0, 100)))
-        declare('profile_acceleration', 0, ParameterDescriptor(
-            description='Profile Acceleration register [214.577 rev/min^2 units]; '
-                        '0 = unlimited' + hardware,
-            integer_range=_int_range(0, 32767)))
-        declare('publish_rate', 100.0, ParameterDescriptor(
-            description='joint_states rate [Hz] (one sync read of both servos each)'
-                        + hardware,
-            floating_point_range=_float_range(1.0, 500.0)))
-        declare('diagnostics_rate', 1.0, ParameterDescriptor(
-            description='/diagnostics rate [Hz]' + hardware,
-            floating_point_range=_float_range(0.1, 10.0)))
-        declare('default_current', 0.5, ParameterDescriptor(
-            description='Goal Current [A] used when a command has max_current = 0 '
-                        '(must not exceed current_limit)',
-            floating_point_range=_float_range(0.00269, 3.20917)))
-        declare('default_profile_velocity', 1.0, ParameterDescriptor(
-            description='Profile Velocity [rad/s] used when a command has '
-                        'profile_velocity = 0 (must not exceed velocity_limit)',
-            floating_point_range=_float_range(0.024, 24.5)))
-        declare('release_on_shutdown', False, ParameterDescriptor(
-            description='switch torque off on deactivate/shutdown (drops a held object); '
-                        'false keeps holding the grip'))
-        declare('autostart', False, ParameterDescriptor(
-            description='configure and activate at start (no lifecycle manager needed)',
-            read_only=True))
+        for parameter in PARAMETERS:
+            self.declare_parameter(parameter.name, parameter.default, parameter.descriptor())
 
     def _config_from(self, overrides: dict[str, Any] | None = None) -> GripperConfig:
         values = {name: self.get_parameter(name).value for name in (
             *HARDWARE_PARAMETERS, 'default_current', 'default_profile_velocity')}
         values.update(overrides or {})
-        return GripperConfig(
-            port=values['port'],
-            baud_rate=values['baud_rate'],
-            right=FingerConfig('right', RIGHT_JOINT, values['right_id'],
-                               values['right_zero_position'], values['right_direction']),
-            left=FingerConfig('left', LEFT_JOINT, values['left_id'],
-                              values['left_zero_position'], values['left_direction']),
-            limits=GripperLimits(values['theta_min'], values['theta_max'],
-                                 values['current_limit'], values['velocity_limit'],
-                                 values['temperature_limit']),
-            default_current=values['default_current'],
-            default_profile_velocity=values['default_profile_velocity'],
-            profile_acceleration=values['profile_acceleration'],
-        )
+        return gripper_config(values)
 
     def _on_set_parameters(self, parameters: list) -> SetParametersResult:
         changed = {p.name: p.value for p in parameters}
@@ -249,9 +149,9 @@ class GripperDriverNode(ForteLifecycleNode):
             f'{limits.theta_max:.4f} rad, current {limits.current_limit:.3f} A, velocity '
             f'{limits.velocity_limit:.3f} rad/s, temperature {limits.temperature_limit} degC')
         self._joint_publisher = self.create_lifecycle_publisher(
-            JointState, 'joint_states', _reliable(10))
+            JointState, 'joint_states', COMMANDS)
         self._command_subscription = self.create_subscription(
-            ServoCommand, 'gripper/command', self._on_command, _reliable(10))
+            ServoCommand, 'gripper/command', self._on_command, COMMANDS)
         self._diagnostics_timer = self.create_timer(
             1.0 / self.get_parameter('diagnostics_rate').value, self._publish_diagnostics)
         self._configured = True
@@ -272,26 +172,16 @@ class GripperDriverNode(ForteLifecycleNode):
         return super().on_activate(state)
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
-        self._active = False
-        if self._state_timer is not None:
-            self.destroy_timer(self._state_timer)
-            self._state_timer = None
+        self._stop_publishing_state()
         self._stop_or_hold('deactivate', close=False)
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
-        self._release_ros_entities()
-        if self.gripper is not None:
-            self.gripper.close()
-            self.gripper = None
-        self._configured = False
+        self._close_port()
         return TransitionCallbackReturn.SUCCESS
 
     def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
-        self._active = False
-        if self._state_timer is not None:
-            self.destroy_timer(self._state_timer)
-            self._state_timer = None
+        self._stop_publishing_state()
         self._release_ros_entities()
         self.stop_hardware('shutdown')
         self.get_logger().info(f'shut down from {state.label}: port closed')
@@ -301,12 +191,23 @@ class GripperDriverNode(ForteLifecycleNode):
         self.get_logger().error(f'error in transition from {state.label}; closing the port '
                                 '(torque left as it is)')
         self._active = False
+        self._close_port()
+        return TransitionCallbackReturn.SUCCESS
+
+    def _stop_publishing_state(self) -> None:
+        """Inactive: no more joint_states (the state timer is destroyed)."""
+        self._active = False
+        if self._state_timer is not None:
+            self.destroy_timer(self._state_timer)
+            self._state_timer = None
+
+    def _close_port(self) -> None:
+        """Unconfigured: release the ROS entities and close the port (torque left as is)."""
         self._release_ros_entities()
         if self.gripper is not None:
             self.gripper.close()
             self.gripper = None
         self._configured = False
-        return TransitionCallbackReturn.SUCCESS
 
     def _release_ros_entities(self) -> None:
         if self._diagnostics_timer is not None:
@@ -374,6 +275,13 @@ class GripperDriverNode(ForteLifecycleNode):
             self.counters['commands_clipped'] += 1
             self.get_logger().warn(f'gripper/command clipped: {"; ".join(check.reasons)}')
 
+    def _count_failed_read(self, counter: str, error: DynamixelError) -> None:
+        """Count a state read that gave no state (in ``counter`` and the consecutive
+        failures) and keep its error for the diagnostics."""
+        self.counters[counter] += 1
+        self.counters['consecutive_read_failures'] += 1
+        self._last_error = str(error)
+
     def _read_state(self) -> dict[str, FingerState] | None:
         start = time.monotonic()
         stamp_start = self.get_clock().now()
@@ -381,16 +289,12 @@ class GripperDriverNode(ForteLifecycleNode):
             state = self.gripper.read_state()
         except StatusError as error:
             # The servo flagged its reply: not state. Skip this sample, repeat nothing.
-            self.counters['state_samples_skipped_status_error'] += 1
-            self.counters['consecutive_read_failures'] += 1
-            self._last_error = str(error)
+            self._count_failed_read('state_samples_skipped_status_error', error)
             self.get_logger().error(f'state sample skipped (no joint_states): {error}',
                                     throttle_duration_sec=1.0)
             return None
         except DynamixelError as error:
-            self.counters['state_read_failures'] += 1
-            self.counters['consecutive_read_failures'] += 1
-            self._last_error = str(error)
+            self._count_failed_read('state_read_failures', error)
             self.get_logger().warn(f'state not read (no joint_states sample): {error}',
                                    throttle_duration_sec=1.0)
             return None
@@ -438,11 +342,10 @@ class GripperDriverNode(ForteLifecycleNode):
                     f'servo {servo_id}: hardware error {ct.hardware_error_text(bits)} '
                     f'(0x{bits:02x}); torque '
                     f'{"on" if self._torque.get(servo_id) else "OFF (shutdown; reboot needed)"}')
-        array = DiagnosticArray()
-        array.header.stamp = self.get_clock().now().to_msg()
-        array.status = [self._servo_status(finger) for finger in self.gripper.config.fingers]
-        array.status.append(self._driver_status())
-        self._diagnostics_publisher.publish(array)
+        statuses = [self._servo_status(finger) for finger in self.gripper.config.fingers]
+        statuses.append(self._driver_status())
+        self._diagnostics_publisher.publish(
+            diagnostic_array(self.get_clock().now().to_msg(), statuses))
 
     def _read_hardware_errors(self) -> None:
         """Hardware Error Status of both servos; if the sync read fails, ask each servo on
@@ -470,40 +373,36 @@ class GripperDriverNode(ForteLifecycleNode):
     def _hardware_problems(self, servo_id: int) -> tuple[int, list[str]]:
         """(level, problems) from Hardware Error Status, the alert bit and the status
         error numbers of one servo since the previous report."""
-        level, problems = DiagnosticStatus.OK, []
+        level, problems = OK, []
         errors = self._hardware_errors.get(servo_id)
         alert = self.gripper.alerts.get(servo_id)
         if errors is None:
-            level = DiagnosticStatus.ERROR
+            level = ERROR
             problems.append(self._hardware_error_read_failures.get(
                 servo_id, 'no answer to Hardware Error Status read'))
         elif errors and self._torque.get(servo_id) is True:
-            level = DiagnosticStatus.WARN
+            level = WARN
             problems.append(f'hardware error: {ct.hardware_error_text(errors)} (not in the '
                             'Shutdown mask: torque stays on)')
         elif errors:
-            level = DiagnosticStatus.ERROR
+            level = ERROR
             problems.append(f'hardware error: {ct.hardware_error_text(errors)}')
             problems.append('torque off by shutdown, commands refused (remove the cause, '
                             'reboot the servo, then configure and activate)')
         elif alert is not None:
-            level = DiagnosticStatus.WARN
+            level = WARN
             problems.append(f'alert bit in status packets: {alert.text}')
         replies = self.gripper.status_errors.error_replies(servo_id)
         new = replies - self._reported_error_replies.get(servo_id, 0)
         self._reported_error_replies[servo_id] = replies
         if new:
-            level = DiagnosticStatus.ERROR
+            level = ERROR
             problems.append(f'{new} status replies with an error number since the last '
                             f'report, not used as state (last: '
                             f'{self.gripper.status_errors.last_error.get(servo_id)})')
         return level, problems
 
     def _servo_status(self, finger: FingerConfig) -> DiagnosticStatus:
-        status = DiagnosticStatus()
-        status.name = f'{self.get_name()}: {finger.name} finger servo (id {finger.servo_id})'
-        status.hardware_id = (f'dynamixel xm430-w350 id {finger.servo_id} on '
-                              f'{self.gripper.config.port}')
         errors = self._hardware_errors.get(finger.servo_id)
         fresh = (self._last_state is not None
                  and time.monotonic() - self._last_state_time < 3.0)
@@ -511,13 +410,11 @@ class GripperDriverNode(ForteLifecycleNode):
         limit = self.gripper.limits.temperature_limit
         level, problems = self._hardware_problems(finger.servo_id)
         if state is None:
-            level = DiagnosticStatus.ERROR
+            level = ERROR
             problems.append('no recent state read')
         elif state.temperature >= limit - TEMPERATURE_WARNING_MARGIN_C:
-            level = max(level, DiagnosticStatus.WARN)
+            level = max(level, WARN)
             problems.append(f'temperature {state.temperature:.0f} degC near limit {limit}')
-        status.level = level
-        status.message = '; '.join(problems) if problems else 'ok'
         counts = self.gripper.status_errors.of(finger.servo_id)
         values = {
             'hardware_error_status': 'unknown' if errors is None else f'0x{errors:02x}',
@@ -536,24 +433,24 @@ class GripperDriverNode(ForteLifecycleNode):
                 'theta_rad': f'{state.theta:.5f}',
                 'current_A': f'{state.effort:.4f}',
             })
-        status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
-        return status
+        return diagnostic_status(
+            f'{self.get_name()}: {finger.name} finger servo (id {finger.servo_id})', level,
+            '; '.join(problems) if problems else 'ok', values,
+            hardware_id=f'dynamixel xm430-w350 id {finger.servo_id} on '
+                        f'{self.gripper.config.port}')
 
     def _driver_status(self) -> DiagnosticStatus:
-        status = DiagnosticStatus()
-        status.name = f'{self.get_name()}: driver'
-        status.hardware_id = f'dynamixel bus {self.gripper.config.port}'
         failing = self.counters['consecutive_read_failures'] >= READ_FAILURES_FOR_ERROR
-        status.level = DiagnosticStatus.ERROR if failing else DiagnosticStatus.OK
-        status.message = (f'state reads failing: {self._last_error}' if failing
-                          else ('active' if self._active else 'inactive (holding)'))
+        message = (f'state reads failing: {self._last_error}' if failing
+                   else ('active' if self._active else 'inactive (holding)'))
         values = {name: str(value) for name, value in self.counters.items()}
         values['retried_transactions'] = str(self.gripper.retried_transactions)
         values['alert_read_failures'] = str(self.gripper.alert_read_failures)
         values['last_error'] = self._last_error or 'none'
         values['release_on_shutdown'] = str(self.get_parameter('release_on_shutdown').value)
-        status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
-        return status
+        return diagnostic_status(f'{self.get_name()}: driver', ERROR if failing else OK,
+                                 message, values,
+                                 hardware_id=f'dynamixel bus {self.gripper.config.port}')
 
 
 def main(args: list[str] | None = None) -> int:

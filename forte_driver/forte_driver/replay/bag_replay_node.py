@@ -23,7 +23,7 @@ import threading
 import time
 from typing import Any
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import (
     FloatingPointRange,
     IntegerRange,
@@ -32,16 +32,13 @@ from rcl_interfaces.msg import (
     SetParametersResult,
 )
 from rclpy.node import Node
-from rclpy.qos import (
-    DurabilityPolicy,
-    HistoryPolicy,
-    QoSProfile,
-    ReliabilityPolicy,
-)
+from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message
 
 from forte_driver.replay.mcap_source import BagError, BagMessage, BagReadReport, bag_files, read_bag
 from forte_ros import publish_quietly, run_node
+from forte_ros.diagnostics import ERROR, OK, diagnostic_array, diagnostic_status
+from forte_ros.qos import DIAGNOSTICS, GRASP_STATE, SENSOR_FRAMES, reliable
 
 #: History depth of the reliable replay publishers [messages] (about 100 s of frames).
 RELIABLE_DEPTH = 10000
@@ -105,6 +102,39 @@ class BagReplayNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('bag_replay', **kwargs)
+        self._declare_parameters()
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+
+        self.bag_path = self.get_parameter('bag_path').value
+        self.topics = list(self.get_parameter('topics').value)
+        self.rate = float(self.get_parameter('rate').value)
+        self.reliable = bool(self.get_parameter('reliable').value)
+        self.exit_when_done = bool(self.get_parameter('exit_when_done').value)
+        if not self.bag_path:
+            raise BagError('parameter bag_path is empty: give the bag to replay')
+        files = bag_files(self.bag_path)  # raises BagError with a clear message
+        self.get_logger().info(
+            f'replaying {self.bag_path} ({len(files)} file(s)), topics '
+            f'{self.topics or "all"}, rate {self.rate if self.rate else "as fast as possible"}'
+        )
+
+        self.report = BagReadReport()
+        self.published: dict[str, int] = {}
+        self.undecodable = 0
+        #: publishes dropped because the process was stopping (``late_publishes``)
+        self.late = {'late_publishes': 0}
+        self.done = threading.Event()
+        self._stop = threading.Event()
+        self._replay_publishers: dict[str, Any] = {}
+        self._classes: dict[str, type] = {}
+        self._reported_errors = 0
+        self._diagnostics = self.create_publisher(DiagnosticArray, '/diagnostics', DIAGNOSTICS)
+        self._diagnostics_timer = self.create_timer(1.0, self._publish_diagnostics)
+        self._thread = threading.Thread(target=self._replay, name='bag_replay', daemon=True)
+        self._thread.start()
+
+    # parameters ------------------------------------------------------------------------
+    def _declare_parameters(self) -> None:
         self.declare_parameter(
             'bag_path', '',
             ParameterDescriptor(
@@ -160,37 +190,7 @@ class BagReplayNode(Node):
                 description='shut the node down after the last message', read_only=True,
             ),
         )
-        self.add_on_set_parameters_callback(self._on_set_parameters)
 
-        self.bag_path = self.get_parameter('bag_path').value
-        self.topics = list(self.get_parameter('topics').value)
-        self.rate = float(self.get_parameter('rate').value)
-        self.reliable = bool(self.get_parameter('reliable').value)
-        self.exit_when_done = bool(self.get_parameter('exit_when_done').value)
-        if not self.bag_path:
-            raise BagError('parameter bag_path is empty: give the bag to replay')
-        files = bag_files(self.bag_path)  # raises BagError with a clear message
-        self.get_logger().info(
-            f'replaying {self.bag_path} ({len(files)} file(s)), topics '
-            f'{self.topics or "all"}, rate {self.rate if self.rate else "as fast as possible"}'
-        )
-
-        self.report = BagReadReport()
-        self.published: dict[str, int] = {}
-        self.undecodable = 0
-        #: publishes dropped because the process was stopping (``late_publishes``)
-        self.late = {'late_publishes': 0}
-        self.done = threading.Event()
-        self._stop = threading.Event()
-        self._replay_publishers: dict[str, Any] = {}
-        self._classes: dict[str, type] = {}
-        self._reported_errors = 0
-        self._diagnostics = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self._diagnostics_timer = self.create_timer(1.0, self._publish_diagnostics)
-        self._thread = threading.Thread(target=self._replay, name='bag_replay', daemon=True)
-        self._thread.start()
-
-    # parameters ------------------------------------------------------------------------
     def _on_set_parameters(self, parameters: list) -> SetParametersResult:
         for parameter in parameters:
             if parameter.name == 'rate':
@@ -205,24 +205,13 @@ class BagReplayNode(Node):
     def _qos(self, topic: str) -> QoSProfile:
         name = relative_name(topic)
         if name == 'grasp/state':
-            return QoSProfile(
-                history=HistoryPolicy.KEEP_LAST, depth=1,
-                reliability=ReliabilityPolicy.RELIABLE,
-                durability=DurabilityPolicy.TRANSIENT_LOCAL,
-            )
+            return GRASP_STATE
         if name == 'tactile/frames' and not self.reliable:
-            return QoSProfile(  # sensor data, depth as in docs/contracts.md
-                history=HistoryPolicy.KEEP_LAST, depth=50,
-                reliability=ReliabilityPolicy.BEST_EFFORT,
-                durability=DurabilityPolicy.VOLATILE,
-            )
+            return SENSOR_FRAMES  # sensor data, depth as in docs/contracts.md
         # Reliable with a deep history: at rate 0 the writer runs far ahead of the readers'
         # acknowledgements, and a shallow keep-last history would overwrite unacknowledged
         # samples (silent loss).
-        return QoSProfile(
-            history=HistoryPolicy.KEEP_LAST, depth=RELIABLE_DEPTH,
-            reliability=ReliabilityPolicy.RELIABLE,
-        )
+        return reliable(RELIABLE_DEPTH)
 
     def _publisher(self, message: BagMessage) -> Any:
         publisher = self._replay_publishers.get(message.topic)
@@ -309,28 +298,24 @@ class BagReplayNode(Node):
         return self._stop.is_set() or not self.context.ok()
 
     def _publish_diagnostics(self) -> None:
-        status = DiagnosticStatus()
-        status.name = f'{self.get_name()}: bag replay'
-        status.hardware_id = str(self.bag_path)
-        if self.report.errors:
-            status.level = DiagnosticStatus.ERROR
-            status.message = 'bag damaged; ' + self.report.errors[-1][:200]
+        report = self.report
+        if report.errors:
+            level, message = ERROR, 'bag damaged; ' + report.errors[-1][:200]
         else:
-            status.level = DiagnosticStatus.OK
-            status.message = 'done' if self.done.is_set() else 'replaying'
-        status.values = [
-            KeyValue(key='published', value=str(sum(self.published.values()))),
-            KeyValue(key='undecodable', value=str(self.undecodable)),
-            KeyValue(key='damage_reports', value=str(len(self.report.errors))),
-            KeyValue(key='chunks_skipped', value=str(self.report.chunks_skipped)),
-            KeyValue(key='bytes_skipped', value=str(self.report.bytes_skipped)),
-            KeyValue(key='messages_lost', value=str(self.report.messages_lost)),
-            KeyValue(key='losses_of_unknown_count', value=str(self.report.unknown_losses)),
-            KeyValue(key='done', value=str(self.done.is_set())),
-        ]
-        array = DiagnosticArray()
-        array.header.stamp = self.get_clock().now().to_msg()
-        array.status = [status]
+            level, message = OK, 'done' if self.done.is_set() else 'replaying'
+        values = {
+            'published': sum(self.published.values()),
+            'undecodable': self.undecodable,
+            'damage_reports': len(report.errors),
+            'chunks_skipped': report.chunks_skipped,
+            'bytes_skipped': report.bytes_skipped,
+            'messages_lost': report.messages_lost,
+            'losses_of_unknown_count': report.unknown_losses,
+            'done': self.done.is_set(),
+        }
+        status = diagnostic_status(f'{self.get_name()}: bag replay', level, message, values,
+                                   hardware_id=str(self.bag_path))
+        array = diagnostic_array(self.get_clock().now().to_msg(), [status])
         publish_quietly(self._diagnostics, array, self.context, self.late)
 
     def stop(self) -> None:

@@ -112,11 +112,6 @@ class BagReadReport:
         return not self.errors
 
     @property
-    def total_messages(self) -> int:
-        """Messages yielded over all topics [count]."""
-        return sum(self.messages.values())
-
-    @property
     def chunks_skipped(self) -> int:
         """Whole chunks not replayed [count]."""
         return sum(1 for loss in self.losses if loss.kind == 'chunk')

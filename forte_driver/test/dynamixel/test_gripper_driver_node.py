@@ -20,20 +20,16 @@ from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import protocol as proto
 from forte_driver.dynamixel.gripper_driver_node import GripperDriverNode
 from forte_msgs.msg import ServoCommand
+from forte_ros.testing import wait_until
 
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                       reliability=ReliabilityPolicy.RELIABLE)
 PULSE = 2.0 * math.pi / 4096.0
 
 
-def wait_for(predicate, timeout=10.0, period=0.02):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(period)
-    return predicate()
+def wait_for(predicate, timeout=10.0):
+    """``predicate``'s first true value within ``timeout`` [s], polled every 20 ms."""
+    return wait_until(predicate, timeout, period=0.02)
 
 
 class Harness:
