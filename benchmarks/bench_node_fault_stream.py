@@ -57,6 +57,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 from scripted_device import OneStartSessionGenerator, ScriptedDevice  # noqa: E402
 
 from forte_msgs.msg import TactileFrames  # noqa: E402
+from forte_ros.qos import reliable  # noqa: E402
 
 PERIOD_US = 500
 TIME_MODULUS = 1 << 64
@@ -92,11 +93,12 @@ class Recorder:
         self.frames: list[tuple[float, Record]] = []
         self.diagnostics: list[tuple[float, dict[str, str]]] = []
         self.samples = 0
+        # a recorder, not a contract profile: keep every frame the reliable publisher sends
         qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE)
         self.node.create_subscription(TactileFrames, 'tactile/frames', self._on_frames, qos)
+        # a deeper queue than the contract's 10: a recorder must not lose a diagnostics period
         self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics,
-                                      QoSProfile(depth=100,
-                                                 reliability=ReliabilityPolicy.RELIABLE))
+                                      reliable(100))
         self.lifecycle = self.node.create_client(ChangeState, f'/{NODE_NAME}/change_state')
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)

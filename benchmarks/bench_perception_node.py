@@ -29,16 +29,15 @@ ROOT = HERE.parent
 ECHO_NODE = r'''
 import rclpy
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from forte_msgs.msg import TactileFrames, TactileState
+from forte_ros.qos import SENSOR_FRAMES, TACTILE_STATE
 
 class Echo(Node):
     def __init__(self):
         super().__init__('perception')
-        reliable = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
-        sensor = QoSProfile(depth=50, reliability=qos_profile_sensor_data.reliability)
-        self.pub = self.create_publisher(TactileState, 'tactile/state', reliable)
-        self.create_subscription(TactileFrames, 'tactile/frames', self.on_frames, sensor)
+        self.pub = self.create_publisher(TactileState, 'tactile/state', TACTILE_STATE)
+        self.create_subscription(TactileFrames, 'tactile/frames', self.on_frames,
+                                 SENSOR_FRAMES)
     def on_frames(self, msg):
         out = TactileState()
         out.header.stamp.sec = msg.header.stamp.sec
@@ -94,22 +93,21 @@ class Client:
     def __init__(self, rclpy):
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.node import Node
-        from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
         from forte_msgs.msg import TactileFrames, TactileState
+        from forte_ros.qos import SENSOR_FRAMES, reliable
         self.TactileFrames = TactileFrames
         self.node = Node('bench_client')
-        self.pub = self.node.create_publisher(
-            TactileFrames, 'tactile/frames',
-            QoSProfile(depth=50, reliability=qos_profile_sensor_data.reliability))
+        self.pub = self.node.create_publisher(TactileFrames, 'tactile/frames', SENSOR_FRAMES)
         self.lock = threading.Lock()
         self.received: dict[int, float] = {}
         self.last_index = -1
         self.gaps = 0
         self.count = 0
+        # a deeper queue than the contract's 50: the probe must not lose a state while it
+        # measures latencies
         self.node.create_subscription(TactileState, 'tactile/state', self.on_state,
-                                      QoSProfile(depth=1000,
-                                                 reliability=ReliabilityPolicy.RELIABLE))
+                                      reliable(1000))
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)

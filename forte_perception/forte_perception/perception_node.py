@@ -42,7 +42,7 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rcl_interfaces.msg import (
     FloatingPointRange,
     IntegerRange,
@@ -51,7 +51,6 @@ from rcl_interfaces.msg import (
 )
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.task import Future
 from std_srvs.srv import Trigger
 
@@ -62,6 +61,8 @@ from forte_perception.force import ForceModel
 from forte_perception.pipeline import PerceptionOutput, PerceptionPipeline, PipelineConfig
 from forte_perception.slip import SlipParams
 from forte_ros import run_node
+from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
+from forte_ros.qos import DIAGNOSTICS, SENSOR_FRAMES, TACTILE_STATE
 
 CHANNEL_NAMES = ('left_distal', 'left_middle', 'left_root',
                  'right_distal', 'right_middle', 'right_root')
@@ -189,16 +190,10 @@ class PerceptionNode(Node):
 
         self._group = MutuallyExclusiveCallbackGroup()
         self._service_group = ReentrantCallbackGroup()
-        self._state_pub = self.create_publisher(
-            TactileState, 'tactile/state',
-            QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE,
-                       history=HistoryPolicy.KEEP_LAST))
-        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        sensor_qos = QoSProfile(depth=50, reliability=qos_profile_sensor_data.reliability,
-                                durability=qos_profile_sensor_data.durability,
-                                history=HistoryPolicy.KEEP_LAST)
-        self.create_subscription(TactileFrames, 'tactile/frames', self._on_frames, sensor_qos,
-                                 callback_group=self._group)
+        self._state_pub = self.create_publisher(TactileState, 'tactile/state', TACTILE_STATE)
+        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', DIAGNOSTICS)
+        self.create_subscription(TactileFrames, 'tactile/frames', self._on_frames,
+                                 SENSOR_FRAMES, callback_group=self._group)
         self.create_service(Tare, 'perception/tare', self._on_tare,
                             callback_group=self._service_group)
         self.create_service(Trigger, 'perception/reset', self._on_reset,
@@ -448,18 +443,15 @@ class PerceptionNode(Node):
             proc = np.asarray(self._processing) * 1e6
             out = self._last_output
             stale = now - self._last_input > self._stale_timeout
-            status = DiagnosticStatus(name='perception: pipeline', hardware_id='forte')
-            level, message = DiagnosticStatus.OK, 'ok'
+            level, message = OK, 'ok'
             if out is None:
-                level, message = DiagnosticStatus.WARN, 'no input yet'
+                level, message = WARN, 'no input yet'
             elif stale:
-                level, message = DiagnosticStatus.ERROR, 'input stale'
+                level, message = ERROR, 'input stale'
             elif not out.tared:
-                level, message = DiagnosticStatus.WARN, 'not tared yet'
+                level, message = WARN, 'not tared yet'
             elif self._pipeline.model is None:
-                level, message = DiagnosticStatus.WARN, 'no force model'
-            status.level = level
-            status.message = message
+                level, message = WARN, 'no force model'
             values = {
                 'input messages/s': f'{rate:.1f}',
                 'tared': str(bool(out.tared) if out else False),
@@ -473,25 +465,19 @@ class PerceptionNode(Node):
                 'driver corrupt frames': str(self._driver_counts[1]),
             }
             values.update({k.replace('_', ' '): str(v) for k, v in self.counters.items()})
-            status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+            status = diagnostic_status('perception: pipeline', level, message, values,
+                                       hardware_id='forte')
             statuses = [status] + self._channel_statuses()
-        array = DiagnosticArray()
-        array.header.stamp = self.get_clock().now().to_msg()
-        array.status = statuses
-        self._diag_pub.publish(array)
+        self._diag_pub.publish(diagnostic_array(self.get_clock().now().to_msg(), statuses))
 
     def _channel_statuses(self) -> list[DiagnosticStatus]:
         """One status per channel: ERROR if invalid values arrived since the previous
         diagnostics, WARN if stuck or railed, with the counts (caller holds the lock)."""
         reports, self._health_snapshot = channel_report(
             self._pipeline.health, self._health_snapshot, self._sample_rate)
-        statuses = []
-        for name, (level, message, values) in zip(CHANNEL_NAMES, reports, strict=True):
-            statuses.append(DiagnosticStatus(
-                level=bytes([level]), name=f'perception: channel {name}', hardware_id='forte',
-                message=message,
-                values=[KeyValue(key=k, value=v) for k, v in values.items()]))
-        return statuses
+        return [diagnostic_status(f'perception: channel {name}', bytes([level]), message,
+                                  values, hardware_id='forte')
+                for name, (level, message, values) in zip(CHANNEL_NAMES, reports, strict=True)]
 
 
 def main(args: list[str] | None = None) -> int:

@@ -37,7 +37,7 @@ Design choices (see docs/perception.md):
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
@@ -288,13 +288,6 @@ class PerceptionPipeline:
         """Replace the force model (takes effect at the next force instant)."""
         self.model = model
 
-    def reconfigure(self, **changes) -> None:
-        """Change configuration values and restart (e.g. ``force_rate=200``)."""
-        config = replace(self.config, **changes)
-        config.validate()
-        self.config = config
-        self.reset()
-
     def mark_gap(self) -> None:
         """Declare that samples were lost before the next chunk (see module notes)."""
         self._gaps += 1
@@ -319,11 +312,6 @@ class PerceptionPipeline:
         return self._gaps
 
     @property
-    def tare_pending(self) -> bool:
-        """True while a tare is collecting its quiet period."""
-        return self._tare_buffer is not None
-
-    @property
     def baseline(self) -> np.ndarray | None:
         """Current baseline (6,) or None before the first tare."""
         return None if self._baseline is None else self._baseline.copy()
@@ -344,13 +332,6 @@ class PerceptionPipeline:
         self._tare_auto = False
         self.tare_result = None
         return True, f'collecting {self._tare_target} quiet samples'
-
-    def set_baseline(self, baseline: np.ndarray) -> None:
-        """Set the baseline (6,) directly (e.g. restored from a previous run)."""
-        b = np.asarray(baseline, dtype=np.float64)
-        if b.shape != (N_CHANNELS,) or not np.isfinite(b).all():
-            raise ValueError(f'baseline must be 6 finite values, got {b}')
-        self._set_baseline(b.copy())
 
     def _set_baseline(self, baseline: np.ndarray) -> None:
         self._baseline = baseline

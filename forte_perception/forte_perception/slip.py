@@ -37,14 +37,32 @@ slip decisions equal the reference's exactly.
 All arithmetic is elementwise numpy (no BLAS reductions of varying shape, fixed update
 boundaries, sequential cumulative sums), so feeding the detector in chunks of any size gives
 bit-for-bit the batch result.
+
+Where the parts live
+--------------------
+This module holds the streaming :class:`SlipDetector` and :func:`slip_features`; the
+parameters, the per-update results and the input check are in
+:mod:`forte_perception.slip_params`, the decisions (steps 3-5 and the guard bands) in
+:mod:`forte_perception.slip_decision`, the Welch reference in
+:mod:`forte_perception.slip_reference`. Everything public is importable from here.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import signal
+
+from .slip_decision import decide_slip, decide_updates
+from .slip_params import (
+    N_CHANNELS,
+    NonFiniteInputError,
+    SlipFeatures,
+    SlipParams,
+    bins_in_band,
+    check_frames,
+)
+from .slip_reference import reference_psd_max_db, slip_features_reference
 
 __all__ = [
     'NonFiniteInputError',
@@ -57,380 +75,7 @@ __all__ = [
     'slip_features_reference',
 ]
 
-N_CHANNELS = 6
-FINGER_CHANNELS = ((0, 1, 2), (3, 4, 5))
 
-
-class NonFiniteInputError(ValueError):
-    """Raised when input frames contain NaN or inf; the detector state is left unchanged."""
-
-
-@dataclass(frozen=True)
-class SlipParams:
-    """Parameters of the slip detector (paper, Table "Slip Detection Parameters").
-
-    Attributes
-    ----------
-    window : int
-        FFT window length N [samples] (400).
-    hop : int
-        Samples between detector updates (4 = overlap 0.99 at N = 400; 1 = every sample).
-    f_min, f_max : float
-        Frequency band [Hz], inclusive (10, 50).
-    history : int
-        PSD history length V [updates] (15).
-    delta : float
-        Minimal increment for monotonicity [dB] (0.1).
-    alpha : float
-        Minimum group average variance [dB^2] (0.6).
-    threshold : float
-        Slip detection threshold T [dB^2] (2.0).
-    eps : float
-        Constant added to the PSD before the logarithm [PSD units] (1e-12).
-    resync_interval : int
-        Updates between exact recomputations of the sliding DFT (numerics only).
-    guard_db : float
-        Half-width of the band around ``delta`` [dB] inside which a decision is re-made
-        with the reference PSD (numerics only).
-    guard_variance : float
-        Half-width of the band around ``alpha`` and ``T`` [dB^2], same purpose.
-    """
-
-    window: int = 400
-    hop: int = 4
-    f_min: float = 10.0
-    f_max: float = 50.0
-    history: int = 15
-    delta: float = 0.1
-    alpha: float = 0.6
-    threshold: float = 2.0
-    eps: float = 1e-12
-    resync_interval: int = 1000
-    guard_db: float = 1e-7
-    guard_variance: float = 1e-6
-
-    def validate(self, fs: float = 2000.0) -> None:
-        """Raise ValueError with a reason if the parameters are unusable at rate ``fs`` [Hz]."""
-        if not np.isfinite(fs) or fs <= 0:
-            raise ValueError(f'fs must be a positive finite rate, got {fs}')
-        if int(self.window) != self.window or self.window < 8:
-            raise ValueError(f'window must be an integer >= 8, got {self.window}')
-        if int(self.hop) != self.hop or not 1 <= self.hop <= self.window:
-            raise ValueError(f'hop must be an integer in [1, window], got {self.hop}')
-        if int(self.history) != self.history or self.history < 2:
-            raise ValueError(f'history must be an integer >= 2, got {self.history}')
-        if not (0 <= self.f_min <= self.f_max <= fs / 2):
-            raise ValueError(
-                f'need 0 <= f_min <= f_max <= fs/2, got f_min={self.f_min} f_max={self.f_max}')
-        if not bins_in_band(self, fs).size:
-            raise ValueError(
-                f'no FFT bin (spacing {fs / self.window} Hz) inside '
-                f'[{self.f_min}, {self.f_max}] Hz')
-        for name in ('delta', 'alpha', 'threshold'):
-            if not np.isfinite(getattr(self, name)):
-                raise ValueError(f'{name} must be finite')
-        if not (self.eps > 0 and np.isfinite(self.eps)):
-            raise ValueError(f'eps must be positive, got {self.eps}')
-        if int(self.resync_interval) != self.resync_interval or self.resync_interval < 1:
-            raise ValueError(f'resync_interval must be an integer >= 1, got {self.resync_interval}')
-        if not (self.guard_db >= 0 and self.guard_variance >= 0):
-            raise ValueError('guards must be >= 0')
-
-
-def bins_in_band(params: SlipParams, fs: float) -> np.ndarray:
-    """FFT bin indices k with ``f_min <= k * fs / N <= f_max`` and ``k <= N // 2``, shape (b,)."""
-    n = int(params.window)
-    k = np.arange(n // 2 + 1)
-    f = k * (fs / n)
-    return k[(f >= params.f_min) & (f <= params.f_max)]
-
-
-@dataclass
-class SlipFeatures:
-    """Per-update slip detector output.
-
-    Attributes
-    ----------
-    sample_index : ndarray, shape (m,), int64
-        Index of the last sample of each update's window (first update: N - 1).
-    psd_max_db : ndarray, shape (m, 6)
-        Band maximum of ``10*log10(P + eps)`` per channel [dB re 1/Hz].
-    channel_variance : ndarray, shape (m, 6)
-        Per-channel moving variance (0 unless the channel rises monotonically) where both
-        finger groups have a rising channel; 0 elsewhere, where the alpha gate zeroes the
-        group averages anyway [dB^2].
-    finger_variance : ndarray, shape (m, 2)
-        Finger-group average moving variance after the alpha gate (left, right) [dB^2].
-    slip : ndarray, shape (m,), bool
-        Slip indicator eta.
-    active : ndarray, shape (m,), bool
-        True once the history holds V values.
-    """
-
-    sample_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    psd_max_db: np.ndarray = field(default_factory=lambda: np.zeros((0, N_CHANNELS)))
-    channel_variance: np.ndarray = field(default_factory=lambda: np.zeros((0, N_CHANNELS)))
-    finger_variance: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
-    slip: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
-    active: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
-
-    def __len__(self) -> int:
-        return int(self.sample_index.shape[0])
-
-    @staticmethod
-    def concatenate(parts: list[SlipFeatures]) -> SlipFeatures:
-        """Join consecutive per-chunk results into one."""
-        if not parts:
-            return SlipFeatures()
-        return SlipFeatures(
-            sample_index=np.concatenate([p.sample_index for p in parts]),
-            psd_max_db=np.concatenate([p.psd_max_db for p in parts]),
-            channel_variance=np.concatenate([p.channel_variance for p in parts]),
-            finger_variance=np.concatenate([p.finger_variance for p in parts]),
-            slip=np.concatenate([p.slip for p in parts]),
-            active=np.concatenate([p.active for p in parts]),
-        )
-
-
-def _check_frames(frames: np.ndarray) -> np.ndarray:
-    x = np.asarray(frames, dtype=np.float64)
-    if x.ndim != 2 or x.shape[1] != N_CHANNELS:
-        raise ValueError(f'frames must have shape (n, {N_CHANNELS}), got {x.shape}')
-    # fast test: the sum is finite unless an element is NaN/inf (or the sum overflows)
-    if not np.isfinite(np.add.reduce(x, axis=None)) and not np.isfinite(x).all():
-        bad = np.argwhere(~np.isfinite(x))[0]
-        raise NonFiniteInputError(
-            f'non-finite input (NaN or inf) at row {bad[0]}, channel {bad[1]}; '
-            'chunk rejected, detector state unchanged')
-    return x
-
-
-# ----------------------------------------------------------------------------- decisions
-def _decide_terms(h: list[np.ndarray], params: SlipParams
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Decision arithmetic on V arrays of equal shape (6, ...), oldest first.
-
-    Elementwise in a fixed order, so a result does not depend on how many updates are
-    decided together or on the memory layout.
-    Returns channel_variance (6, ...), finger (2, ...), slip (...), min_diff (6, ...),
-    finger_raw (2, ...).
-    """
-    v = len(h)
-    min_diff = h[1] - h[0]
-    for i in range(2, v):
-        min_diff = np.minimum(min_diff, h[i] - h[i - 1])
-    return _decide_rest(h, min_diff, params)
-
-
-def _decide_rest(h: list[np.ndarray], min_diff: np.ndarray, params: SlipParams
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Variance, group average, gate and threshold given the smallest differences.
-
-    ``h``: V arrays (6, m) (or (6, ...)), ``min_diff`` (6, ...). The variance matters only
-    where some channel rises monotonically (rare in practice), so it is computed for those
-    updates only (same arithmetic per element, so the same bits).
-    """
-    v = len(h)
-    shape = min_diff.shape
-    md = min_diff.reshape(shape[0], -1)
-    m = md.shape[1]
-    rising = md > params.delta
-    # the group averages pass the alpha gate only if both groups have a rising channel
-    # (a channel's variance is 0 unless it rises; alpha > 0): compute variances there only
-    if params.alpha > 0.0:
-        both = rising[0] | rising[1] | rising[2]
-        both &= rising[3] | rising[4] | rising[5]
-    else:
-        both = np.ones(m, bool)
-    cols = np.nonzero(both)[0]
-    channel_variance = np.zeros((N_CHANNELS, m))
-    finger = np.zeros((2, m))
-    finger_raw = np.zeros((2, m))
-    slip = np.zeros(m, bool)
-    if cols.size:
-        flat = [np.asarray(x).reshape(x.shape[0], -1) for x in h]
-        if cols.size * 4 > m:  # many: contiguous slices beat gathering
-            cols = np.arange(m)
-            hs = flat
-        else:
-            hs = [x[:, cols] for x in flat]
-        total = hs[0].copy()
-        for i in range(1, v):
-            total = total + hs[i]
-        mean = total / v
-        sq = (hs[0] - mean) ** 2
-        for i in range(1, v):
-            sq = sq + (hs[i] - mean) ** 2
-        cv = np.where(rising[:, cols] & both[cols], sq / v, 0.0)
-        left = (cv[0] + cv[1] + cv[2]) / 3.0
-        right = (cv[3] + cv[4] + cv[5]) / 3.0
-        gate = (left >= params.alpha) & (right >= params.alpha)
-        channel_variance[:, cols] = cv
-        finger_raw[:, cols] = np.stack([left, right], axis=0)
-        finger[:, cols] = np.where(gate, finger_raw[:, cols], 0.0)
-        slip[cols] = np.maximum(finger[0, cols], finger[1, cols]) > params.threshold
-    return (channel_variance.reshape(shape), finger.reshape((2,) + shape[1:]),
-            slip.reshape(shape[1:]), min_diff, finger_raw.reshape((2,) + shape[1:]))
-
-
-def decide_slip(history: np.ndarray, params: SlipParams
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Moving variance, finger average, alpha gate and threshold for full histories.
-
-    Parameters
-    ----------
-    history : ndarray, shape (m, V, 6)
-        The last V ``psd_max_db`` values (oldest first) of m updates [dB].
-    params : SlipParams
-
-    Returns
-    -------
-    channel_variance : ndarray, shape (m, 6) [dB^2]
-    finger_variance : ndarray, shape (m, 2) [dB^2]
-    slip : ndarray, shape (m,), bool
-    min_diff : ndarray, shape (m, 6)
-        Smallest consecutive difference per channel [dB].
-    """
-    hist = np.asarray(history, dtype=np.float64)
-    terms = [np.ascontiguousarray(hist[:, i, :].T) for i in range(hist.shape[1])]
-    cv, fv, sl, md, _ = _decide_terms(terms, params)
-    return cv.T, fv.T, sl, md.T
-
-
-def _running_min(values: np.ndarray, width: int) -> np.ndarray:
-    """Minimum over each run of ``width`` consecutive columns, (r, c) -> (r, c - width + 1).
-
-    Doubling (sparse table): minima of runs of 1, 2, 4, ... columns, then two overlapping
-    runs cover ``width``. Exact (min does no arithmetic).
-    """
-    out_len = values.shape[1] - width + 1
-    span, cur = 1, values
-    while 2 * span <= width:
-        cur = np.minimum(cur[:, :-span], cur[:, span:])
-        span *= 2
-    return np.minimum(cur[:, :out_len], cur[:, width - span:width - span + out_len])
-
-
-def _borderline(finger_raw: np.ndarray, min_diff: np.ndarray, params: SlipParams) -> np.ndarray:
-    """Updates whose decision could flip inside the numerical guard bands, shape (m,).
-
-    ``finger_raw`` (2, m) and ``min_diff`` (6, m).
-    """
-    border = np.abs(min_diff - params.delta).min(axis=0) <= params.guard_db
-    cols = np.nonzero(finger_raw.any(axis=0))[0]  # group averages are 0 elsewhere
-    if cols.size:
-        g = params.guard_variance
-        f = finger_raw[:, cols]
-        near = ((np.abs(f - params.alpha) <= g * max(1.0, abs(params.alpha)))
-                | (np.abs(f - params.threshold) <= g * max(1.0, abs(params.threshold))))
-        border[cols] |= near.any(axis=0)
-    if params.alpha <= 0.0 or params.threshold <= 0.0:  # 0 itself is near a threshold
-        border |= _zero_near(finger_raw, params)
-    return border
-
-
-def _zero_near(finger_raw: np.ndarray, params: SlipParams) -> np.ndarray:
-    """Guard for unusual thresholds at or below 0, where a zero average is borderline."""
-    g = params.guard_variance
-    near = ((np.abs(finger_raw - params.alpha) <= g * max(1.0, abs(params.alpha)))
-            | (np.abs(finger_raw - params.threshold) <= g * max(1.0, abs(params.threshold))))
-    return near.any(axis=0)
-
-
-def _finish(psd: np.ndarray, first_update: int, params: SlipParams, prior: np.ndarray
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Decisions for consecutive updates ``first_update ..`` given the previous history.
-
-    Channel-major: ``psd`` (6, m); ``prior`` (6, h) holds up to V-1 psd values of the
-    updates just before. Returns channel_variance (6, m), finger_variance (2, m), slip (m,),
-    active (m,), borderline (m,).
-    """
-    v = int(params.history)
-    m = psd.shape[1]
-    channel_variance = np.zeros((N_CHANNELS, m))
-    finger = np.zeros((2, m))
-    slip = np.zeros(m, bool)
-    border = np.zeros(m, bool)
-    active = (first_update + np.arange(m)) >= v - 1
-    if active[-1]:
-        first = int(np.argmax(active))  # active updates are a suffix
-        series = np.concatenate([prior, psd], axis=1)  # (6, h + m)
-        offset = prior.shape[1]
-        ma = m - first
-        lo = offset + first - v + 1  # history of the first active update starts here
-        terms = [series[:, lo + i:lo + i + ma] for i in range(v)]
-        # smallest of the V-1 consecutive differences: a running minimum (exact)
-        steps = series[:, lo + 1:lo + v - 1 + ma] - series[:, lo:lo + v - 2 + ma]
-        min_diff = _running_min(steps, v - 1)
-        cv, fv, sl, md, fraw = _decide_rest(terms, min_diff, params)
-        channel_variance[:, first:] = cv
-        finger[:, first:] = fv
-        slip[first:] = sl
-        border[first:] = _borderline(fraw, md, params)
-    return channel_variance, finger, slip, active, border
-
-
-# ----------------------------------------------------------------------------- reference
-def reference_psd_max_db(window: np.ndarray, fs: float, params: SlipParams) -> np.ndarray:
-    """Straightforward PSD feature of one window with ``scipy.signal.welch``.
-
-    Parameters
-    ----------
-    window : ndarray, shape (N, 6)
-    fs : float
-        Sampling rate [Hz].
-    params : SlipParams
-
-    Returns
-    -------
-    ndarray, shape (6,)
-        ``max over f_min <= f <= f_max of 10*log10(P + eps)`` [dB re 1/Hz].
-    """
-    n = int(params.window)
-    f, p = signal.welch(window, fs=fs, window='hann', nperseg=n, noverlap=0,
-                        detrend='constant', return_onesided=True, scaling='density', axis=0)
-    band = (f >= params.f_min) & (f <= params.f_max)
-    return np.max(10.0 * np.log10(p[band] + params.eps), axis=0)
-
-
-def slip_features_reference(frames: np.ndarray, fs: float = 2000.0,
-                            params: SlipParams | None = None,
-                            vectorized: bool = False) -> SlipFeatures:
-    """The straightforward baseline: a Welch PSD of every window at every update.
-
-    Same signature and output as :func:`slip_features`; used by the tests and benchmarks.
-
-    Parameters
-    ----------
-    vectorized : bool
-        False: one ``scipy.signal.welch`` call per window (the definition, and what guarded
-        decisions use). True: welch over blocks of stacked windows (much faster; FFT
-        batching may change the last bits, ~1e-14 dB).
-    """
-    params = params or SlipParams()
-    params.validate(fs)
-    x = _check_frames(frames)
-    n, hop = int(params.window), int(params.hop)
-    if x.shape[0] < n:
-        return SlipFeatures()
-    ends = np.arange(n - 1, x.shape[0], hop)
-    psd = np.empty((ends.size, N_CHANNELS))
-    if vectorized:
-        windows = np.lib.stride_tricks.sliding_window_view(x, n, axis=0)[::hop]  # (m, 6, N)
-        for b in range(0, ends.size, 2000):
-            f, p = signal.welch(windows[b:b + 2000], fs=fs, window='hann', nperseg=n,
-                                noverlap=0, detrend='constant', scaling='density', axis=-1)
-            band = (f >= params.f_min) & (f <= params.f_max)
-            psd[b:b + 2000] = np.max(10.0 * np.log10(p[..., band] + params.eps), axis=-1)
-    else:
-        for i, t in enumerate(ends):
-            psd[i] = reference_psd_max_db(x[t - n + 1:t + 1], fs, params)
-    cv, fv, sl, act, _ = _finish(np.ascontiguousarray(psd.T), 0, params,
-                                 np.zeros((N_CHANNELS, 0)))
-    return SlipFeatures(ends.astype(np.int64), psd, cv.T, fv.T, sl, act)
-
-
-# ----------------------------------------------------------------------------- fast
 class SlipDetector:
     """Streaming slip detector: feed frames in chunks of any size.
 
@@ -532,7 +177,7 @@ class SlipDetector:
         NonFiniteInputError
             If the chunk contains NaN or inf (nothing is consumed).
         """
-        x = _check_frames(frames)
+        x = check_frames(frames)
         n, hop = self._n, self._hop
         buf = np.concatenate([self._buffer, x], axis=0) if self._buffer.size else x
         start = self._buffer_start
@@ -551,7 +196,7 @@ class SlipDetector:
             e = ends[b:b + self._block]
             psd[:, b:b + e.size] = self._psd_block(buf_t, start, e, u0 + b)
         prior = self._psd_history  # (6, <= V-1), channel-major
-        cv, fv, sl, act, border = _finish(psd, u0, self.params, prior)
+        cv, fv, sl, act, border = decide_updates(psd, u0, self.params, prior)
         v = int(self.params.history)
         self._psd_history = np.concatenate([prior, psd[:, -(v - 1):]], axis=1)[:, -(v - 1):]
         psd, cv, fv = psd.T, cv.T, fv.T
@@ -684,7 +329,7 @@ def slip_features(frames: np.ndarray, fs: float = 2000.0,
         m = 0 if n < N, else ``(n - N) // hop + 1`` updates.
     """
     detector = SlipDetector(fs, params)
-    x = _check_frames(frames)
+    x = check_frames(frames)
     parts = []
     block = 65536  # bounds temporary memory; chunking does not change the result
     for i in range(0, x.shape[0], block):

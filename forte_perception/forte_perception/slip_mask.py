@@ -31,12 +31,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .slip import SlipFeatures, SlipParams, reference_psd_max_db
+from .slip_params import FINGER_CHANNELS, N_CHANNELS, SlipFeatures, SlipParams
+from .slip_reference import reference_psd_max_db
 
 __all__ = ['SlipMask', 'decide_slip_masked']
-
-N_CHANNELS = 6
-FINGER_CHANNELS = ((0, 1, 2), (3, 4, 5))
 
 
 def decide_slip_masked(history: np.ndarray, usable: np.ndarray, params: SlipParams

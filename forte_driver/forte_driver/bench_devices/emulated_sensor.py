@@ -128,15 +128,11 @@ class EmulatedSensor:
     # ---- device state -----------------------------------------------------------------
 
     def _reset_device_state(self) -> None:
+        """Power-up state: nothing buffered, a new session (streaming only in ASCII mode)."""
         self._streaming = self.protocol_name == 'ascii' and self.stream_on_power_up
         self._ascii_merge_pending = False
-        self._transmitted = 0
-        self._sequence = 0
-        self._session_scans = 0
-        self._overruns = 0
-        self._overruns_reported = 0
-        self._session_start = True
-        self._next_scan_us: int | None = None
+        self._restart_sequence()
+        self._restart_scan_counts()
         self._ring: deque[Sample] = deque()
         self._out = bytearray()
         self._hold_until_ns = 0
@@ -144,13 +140,25 @@ class EmulatedSensor:
         self._held: tuple[bytes, tuple] | None = None  # reordered frame, sent after the next
         self._restart_pending = False
 
+    def _restart_sequence(self) -> None:
+        """Sequence numbers, overrun counter and scan clock start again, the next scan
+        carries the first-scan flag (START, power-up, device restart)."""
+        self._sequence = 0
+        self._overruns = self._overruns_reported = 0
+        self._session_start = True
+        self._next_scan_us: int | None = None
+
+    def _restart_scan_counts(self) -> None:
+        """The session's scan counts (``max_scans``, clean tail) and scan clock start again."""
+        self._session_scans = 0
+        self._transmitted = 0
+        self._next_scan_us = None
+
     def set_ascii_streaming(self, streaming: bool) -> None:
         """ASCII mode: start or stop the line stream (the legacy firmware has no commands)."""
         with self._lock:
             self._streaming = streaming
-            self._next_scan_us = None
-            self._session_scans = 0
-            self._transmitted = 0
+            self._restart_scan_counts()
 
     @property
     def streaming(self) -> bool:
@@ -233,11 +241,6 @@ class EmulatedSensor:
             self._reset_device_state()
             self._open_pty()
 
-    @property
-    def plugged(self) -> bool:
-        """True while the pty exists."""
-        return self._master is not None
-
     # ---- faults -------------------------------------------------------------------------
 
     def inject(self, fault: str, count: int = 1, kind: str | None = None,
@@ -274,10 +277,7 @@ class EmulatedSensor:
         self._restart_pending = False
         self._host_origin_ns = time.monotonic_ns()
         self.clock_offset_us = 1_000_000  # 1 s after boot
-        self._sequence = 0
-        self._overruns = self._overruns_reported = 0
-        self._session_start = True
-        self._next_scan_us = None
+        self._restart_sequence()
 
     def _garbage(self, exclude: tuple[int, ...]) -> bytes:
         allowed = [b for b in range(256) if b not in exclude]
@@ -316,14 +316,9 @@ class EmulatedSensor:
                 status = Status.BUSY
             else:
                 self._streaming = True
-                self._sequence = 0
-                self._session_scans = 0
-                self._overruns = 0
-                self._overruns_reported = 0
-                self._session_start = True
+                self._restart_sequence()
+                self._restart_scan_counts()
                 self._ring.clear()
-                self._next_scan_us = None
-                self._transmitted = 0
                 self.sessions += 1
         elif command.command == Command.STOP:
             value = self._sequence

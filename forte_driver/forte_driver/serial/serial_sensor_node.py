@@ -33,15 +33,9 @@ import time
 from dataclasses import dataclass
 
 import serial
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.lifecycle import LifecycleState, TransitionCallbackReturn
-from rclpy.qos import (
-    DurabilityPolicy,
-    HistoryPolicy,
-    QoSProfile,
-    ReliabilityPolicy,
-)
 from rclpy.time import Time
 
 from forte_driver.serial import protocol
@@ -50,7 +44,8 @@ from forte_driver.serial.reader_health import ERROR, WARN, ReaderHealth, diagnos
 from forte_driver.serial.sensor_stream import SensorStream, StampedBatch
 from forte_driver.serial.serial_sensor_parameters import declare_parameters, validate_parameters
 from forte_msgs.msg import TactileFrames
-from forte_ros import ForteLifecycleNode, publish_quietly, run_node
+from forte_ros import ForteLifecycleNode, diagnostics, publish_quietly, run_node
+from forte_ros.qos import DIAGNOSTICS, frames_profile
 
 FRAMES_TOPIC = 'tactile/frames'
 DIAGNOSTICS_TOPIC = '/diagnostics'
@@ -90,8 +85,7 @@ class SerialSensorNode(ForteLifecycleNode):
         #: publishes dropped because the process was stopping (``late_publishes``)
         self.late = {'late_publishes': 0}
         self._diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS_TOPIC,
-            QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
+            DiagnosticArray, DIAGNOSTICS_TOPIC, DIAGNOSTICS)
         self._token = 0
         self._start_token: int | None = None
         self._start_sent_at = 0.0
@@ -150,11 +144,7 @@ class SerialSensorNode(ForteLifecycleNode):
 
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
         self._reset_stream_state()
-        reliable = self.get_parameter('reliable').value
-        qos = QoSProfile(
-            history=HistoryPolicy.KEEP_LAST, depth=50,
-            reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-            durability=DurabilityPolicy.VOLATILE)
+        qos = frames_profile(bool(self.get_parameter('reliable').value))
         self._frames_publisher = self.create_lifecycle_publisher(TactileFrames, FRAMES_TOPIC, qos)
         if not self._open_port():
             self.destroy_lifecycle_publisher(self._frames_publisher)
@@ -505,17 +495,14 @@ class SerialSensorNode(ForteLifecycleNode):
         if latencies:
             values['latency_mean_ms'] = f'{1e3 * sum(latencies) / len(latencies):.3f}'
             values['latency_max_ms'] = f'{1e3 * max(latencies):.3f}'
-        status = DiagnosticStatus(name=f'{self.get_name()}: tactile sensor',
-                                  hardware_id=values.get('device_id', values['port']))
-        level, status.message = diagnostics_level(
+        level, text = diagnostics_level(
             self._state_label, self._port is not None, rate, self._rate_hz, self._health,
             time.monotonic())
-        status.level = {ERROR: DiagnosticStatus.ERROR,
-                        WARN: DiagnosticStatus.WARN}.get(level, DiagnosticStatus.OK)
-        status.values = [KeyValue(key=key, value=value) for key, value in values.items()]
-        message = DiagnosticArray()
-        message.header.stamp = Time(nanoseconds=now_ns).to_msg()
-        message.status = [status]
+        status = diagnostics.diagnostic_status(
+            f'{self.get_name()}: tactile sensor',
+            {ERROR: diagnostics.ERROR, WARN: diagnostics.WARN}.get(level, diagnostics.OK),
+            text, values, hardware_id=values.get('device_id', values['port']))
+        message = diagnostics.diagnostic_array(Time(nanoseconds=now_ns).to_msg(), [status])
         publish_quietly(self._diagnostics_publisher, message, self.context, self.late)
 
 

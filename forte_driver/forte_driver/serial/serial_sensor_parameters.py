@@ -11,50 +11,57 @@ from rcl_interfaces.msg import (
     SetParametersResult,
 )
 
+#: Every parameter of the node: name -> (default, description, (low, high) range or None,
+#: read only). A range is an integer range for an integer default, else a floating point
+#: range; the table's order is the order of declaration.
+PARAMETERS: dict[str, tuple[object, str, tuple[float, float] | None, bool]] = {
+    'port': ('/dev/forte_sensor',
+             'serial device of the sensor board (udev name, see forte_driver/udev)',
+             None, False),
+    'protocol': ('binary', "'binary' (FORTE protocol v1) or 'ascii' (legacy T1:..,T6:.. lines)",
+                 None, False),
+    'baud_rate': (2000000, 'baud rate [bit/s]; ignored by USB CDC devices, used by UART '
+                  'bridges', (9600, 12000000), False),
+    'rtscts': (False, 'hardware flow control (the legacy firmware used RTS/CTS)', None, False),
+    'sample_rate_hz': (2000, 'scan rate [Hz]: sent with SET_RATE (binary), nominal rate '
+                       '(ascii); must divide 1000000', (1, 4000), False),
+    'batch_size': (20, 'samples per TactileFrames message (a batch also ends at every gap)',
+                   (1, 2000), False),
+    'reliable': (False, 'reliable QoS on tactile/frames (for recording); default sensor data '
+                 'QoS', None, False),
+    'frame_id': ('forte_base_link', 'frame_id of the published frames', None, False),
+    'reconnect_period': (0.5, 'time between attempts to reopen a lost device [s]',
+                         (0.05, 60.0), False),
+    'diagnostics_period': (1.0, 'period of /diagnostics messages [s]', (0.1, 60.0), True),
+    'clock_window': (20.0, 'device clock fit window [s]', (1.0, 600.0), False),
+    'autostart': (False, 'configure and activate without a lifecycle manager (retries while '
+                  'the device is absent)', None, True),
+    'error_hold': (5.0, 'a reader error keeps /diagnostics at ERROR this long [s]',
+                   (0.1, 600.0), False),
+    'command_timeout': (0.5, 'resend START if not acknowledged within this time [s]',
+                        (0.05, 10.0), False),
+}
+
+
+def parameter_descriptor(default: object, description: str,
+                         bounds: tuple[float, float] | None,
+                         read_only: bool) -> ParameterDescriptor:
+    """The descriptor of one :data:`PARAMETERS` entry (range steps 0: any value inside)."""
+    descriptor = ParameterDescriptor(description=description, read_only=read_only)
+    if bounds is not None and isinstance(default, int):
+        descriptor.integer_range = [IntegerRange(from_value=bounds[0], to_value=bounds[1],
+                                                 step=0)]
+    elif bounds is not None:
+        descriptor.floating_point_range = [FloatingPointRange(
+            from_value=bounds[0], to_value=bounds[1], step=0.0)]
+    return descriptor
+
 
 def declare_parameters(node) -> None:
-    """Declare every parameter of the serial sensor node (descriptors with ranges)."""
-    def describe(text: str, **extra) -> ParameterDescriptor:
-        return ParameterDescriptor(description=text, **extra)
-
-    node.declare_parameter('port', '/dev/forte_sensor', describe(
-        'serial device of the sensor board (udev name, see forte_driver/udev)'))
-    node.declare_parameter('protocol', 'binary', describe(
-        "'binary' (FORTE protocol v1) or 'ascii' (legacy T1:..,T6:.. lines)"))
-    node.declare_parameter('baud_rate', 2000000, describe(
-        'baud rate [bit/s]; ignored by USB CDC devices, used by UART bridges',
-        integer_range=[IntegerRange(from_value=9600, to_value=12000000, step=0)]))
-    node.declare_parameter('rtscts', False, describe(
-        'hardware flow control (the legacy firmware used RTS/CTS)'))
-    node.declare_parameter('sample_rate_hz', 2000, describe(
-        'scan rate [Hz]: sent with SET_RATE (binary), nominal rate (ascii); '
-        'must divide 1000000',
-        integer_range=[IntegerRange(from_value=1, to_value=4000, step=0)]))
-    node.declare_parameter('batch_size', 20, describe(
-        'samples per TactileFrames message (a batch also ends at every gap)',
-        integer_range=[IntegerRange(from_value=1, to_value=2000, step=0)]))
-    node.declare_parameter('reliable', False, describe(
-        'reliable QoS on tactile/frames (for recording); default sensor data QoS'))
-    node.declare_parameter('frame_id', 'forte_base_link', describe(
-        'frame_id of the published frames'))
-    node.declare_parameter('reconnect_period', 0.5, describe(
-        'time between attempts to reopen a lost device [s]',
-        floating_point_range=[FloatingPointRange(from_value=0.05, to_value=60.0, step=0.0)]))
-    node.declare_parameter('diagnostics_period', 1.0, describe(
-        'period of /diagnostics messages [s]', read_only=True,
-        floating_point_range=[FloatingPointRange(from_value=0.1, to_value=60.0, step=0.0)]))
-    node.declare_parameter('clock_window', 20.0, describe(
-        'device clock fit window [s]',
-        floating_point_range=[FloatingPointRange(from_value=1.0, to_value=600.0, step=0.0)]))
-    node.declare_parameter('autostart', False, describe(
-        'configure and activate without a lifecycle manager (retries while the device '
-        'is absent)', read_only=True))
-    node.declare_parameter('error_hold', 5.0, describe(
-        'a reader error keeps /diagnostics at ERROR this long [s]',
-        floating_point_range=[FloatingPointRange(from_value=0.1, to_value=600.0, step=0.0)]))
-    node.declare_parameter('command_timeout', 0.5, describe(
-        'resend START if not acknowledged within this time [s]',
-        floating_point_range=[FloatingPointRange(from_value=0.05, to_value=10.0, step=0.0)]))
+    """Declare every parameter of the serial sensor node (:data:`PARAMETERS`)."""
+    for name, (default, description, bounds, read_only) in PARAMETERS.items():
+        node.declare_parameter(name, default,
+                               parameter_descriptor(default, description, bounds, read_only))
 
 
 def validate_parameters(parameters, state_label: str) -> SetParametersResult:

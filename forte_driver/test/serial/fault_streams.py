@@ -75,6 +75,11 @@ class FaultRates:
     implausible: float = 0.005  # a CRC-valid implausible frame before the frame
     overrun: float = 0.002      # the device itself drops the scan: 1 dropped, 1 overrun
 
+    @classmethod
+    def only(cls, **rates: float) -> FaultRates:
+        """The faults named in ``rates`` with those probabilities, every other one 0."""
+        return cls(**{**{name: 0.0 for name in cls.__dataclass_fields__}, **rates})
+
 
 @dataclass
 class Expected:

@@ -12,46 +12,101 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
 from forte_driver.bench_devices.emulated_sensor import EmulatedSensor
 from forte_driver.serial.serial_sensor_node import SerialSensorNode
 from forte_msgs.msg import TactileFrames
+from forte_ros.qos import SENSOR_FRAMES, reliable
+from forte_ros.testing import check_isolated_network, wait_until
+
+try:
+    from forte_ros.testing import ExecutorThread
+except ImportError:  # until forte_ros.testing has it (issue 16): the same code, once here
+    class ExecutorThread:
+        """Nodes of a private rclpy context spun by one executor in a daemon thread.
+
+        The set-up every in-process node test repeats: ``rclpy.init`` of a fresh context,
+        the nodes built in :attr:`context`, one executor, one thread, and the tear-down in
+        reverse. Single-threaded on purpose: rclpy's MultiThreadedExecutor re-dispatches
+        ready entities in a loop (ros2/rclpy#1223) and starves the nodes' own threads (a
+        driver's reader) of the GIL.
+
+        Use: ``ros = ExecutorThread()``; build the nodes with ``context=ros.context``;
+        ``ros.spin(node, peer)``; at the end ``ros.close()`` (or :meth:`stop`, a clean-up
+        of the nodes' own, then :meth:`close`).
+        """
+
+        def __init__(self) -> None:
+            check_isolated_network()
+            self.context = rclpy.Context()
+            rclpy.init(context=self.context)
+            self.nodes: list[Node] = []
+            self.executor = SingleThreadedExecutor(context=self.context)
+            self._thread: threading.Thread | None = None
+
+        def spin(self, *nodes: Node) -> None:
+            """Add ``nodes`` to the executor and spin it in a daemon thread."""
+            for node in nodes:
+                self.executor.add_node(node)
+                self.nodes.append(node)
+            self._thread = threading.Thread(target=self.executor.spin, daemon=True)
+            self._thread.start()
+
+        def stop(self, timeout: float = 2.0) -> None:
+            """Shut the executor down and join its thread (the nodes still exist)."""
+            self.executor.shutdown(timeout_sec=timeout)
+            if self._thread is not None:
+                self._thread.join(timeout=timeout)
+
+        def close(self, timeout: float = 2.0) -> None:
+            """:meth:`stop`, destroy the nodes, shut the context down."""
+            self.stop(timeout)
+            for node in self.nodes:
+                node.destroy_node()
+            rclpy.try_shutdown(context=self.context)
 
 
 class Harness:
-    """Driver node + recording subscriber spun by one executor in a thread."""
+    """Driver node + recording subscriber spun by one executor in a thread; a context
+    manager (closes on exit)."""
 
     def __init__(self, port: str, **parameters) -> None:
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
+        self.ros = ExecutorThread()
         overrides = [Parameter('port', value=port)]
         overrides += [Parameter(name, value=value) for name, value in parameters.items()]
-        self.node = SerialSensorNode(context=self.context, parameter_overrides=overrides)
-        self.listener = Node('frames_listener', context=self.context)
+        self.node = SerialSensorNode(context=self.ros.context, parameter_overrides=overrides)
+        self.listener = Node('frames_listener', context=self.ros.context)
         self.frames: list[TactileFrames] = []
         self.diagnostics: list[DiagnosticArray] = []
-        reliable = parameters.get('reliable', False)
-        qos = (QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE) if reliable
-               else qos_profile_sensor_data)
+        # reliable: a deeper queue than the contract's 50, a recorder must lose nothing
+        qos = reliable(1000) if parameters.get('reliable', False) else SENSOR_FRAMES
         self.listener.create_subscription(TactileFrames, 'tactile/frames', self.frames.append, qos)
         self.listener.create_subscription(DiagnosticArray, '/diagnostics',
                                           self.diagnostics.append, 10)
-        # single-threaded: rclpy's MultiThreadedExecutor re-dispatches ready entities in a loop
-        # (ros2/rclpy#1223) and starved the driver's reader thread of the GIL
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.executor.add_node(self.listener)
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
+        self.ros.spin(self.node, self.listener)
+
+    def __enter__(self) -> Harness:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def activate(self) -> SerialSensorNode:
+        """Configure and activate the node (both transitions must succeed); returns it."""
+        node = self.node
+        node.trigger_configure()
+        assert node.lifecycle_state == 'inactive'
+        node.trigger_activate()
+        assert node.lifecycle_state == 'active'
+        return node
+
+    def wait_published(self, samples: int, timeout: float = 20.0) -> bool:
+        """Wait until the node has published more than ``samples`` samples."""
+        return self.wait(lambda: self.node.counters['published_samples'] > samples, timeout)
 
     def wait(self, condition, timeout: float = 20.0) -> bool:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if condition():
-                return True
-            time.sleep(0.02)
-        return condition()
+        """Poll ``condition`` until true or ``timeout`` [s] passes; whether it became true."""
+        return bool(wait_until(condition, timeout, period=0.02))
 
     @staticmethod
     def system_minus_monotonic_ns() -> int:
@@ -69,13 +124,11 @@ class Harness:
         return out
 
     def close(self) -> None:
-        self.executor.shutdown(timeout_sec=2.0)
-        self.thread.join(timeout=2.0)
+        """Stop spinning, stop the driver's reader and port, destroy the nodes."""
+        self.ros.stop()
         if self.node.lifecycle_state in ('inactive', 'active'):
             self.node._shutdown_io()
-        self.node.destroy_node()
-        self.listener.destroy_node()
-        rclpy.try_shutdown(context=self.context)
+        self.ros.close()
 
 
 def check_batches_are_gap_free_and_true(harness: Harness, sensor: EmulatedSensor) -> int:

@@ -28,10 +28,7 @@ def link(tmp_path):
 def run_finite_session(harness: Harness, sensor: EmulatedSensor, scans: int) -> None:
     """Activate, wait until every scan of the device is accounted for, deactivate and
     wait until every published message arrived."""
-    node = harness.node
-    node.trigger_configure()
-    node.trigger_activate()
-    assert node.lifecycle_state == 'active'
+    node = harness.activate()
     assert harness.wait(lambda: sensor.scans_generated >= scans, 30.0)
     log = sensor.log
     # every scan sent (all but the log's dropped ones) was received or counted late; the
@@ -64,8 +61,7 @@ def test_crc_valid_implausible_frames_are_counted_and_never_published(link):
         sensor.inject('implausible', kind='random')
         for kind in ('time', 'values', 'flags', 'random'):
             sensor.inject('implausible', kind=kind, after=20)
-        harness = Harness(link, reliable=True, diagnostics_period=0.2)
-        try:
+        with Harness(link, reliable=True, diagnostics_period=0.2) as harness:
             run_finite_session(harness, sensor, 3000)
             log, counters = sensor.log, harness.node.counters
             assert log.implausible > 60
@@ -89,72 +85,62 @@ def test_crc_valid_implausible_frames_are_counted_and_never_published(link):
             assert all(level != DiagnosticStatus.ERROR
                        for level, _, values in diagnostic_records(harness)
                        if values.get('state') == 'active')
-        finally:
-            harness.close()
 
 
 def test_duplicated_and_reordered_frames_are_published_once_in_order(link):
     plan = FaultPlan(duplicate=0.03, reorder=0.03)
-    with EmulatedSensor(link, faults=plan, seed=32, max_scans=3000) as sensor:
-        harness = Harness(link, reliable=True, diagnostics_period=0.2)
-        try:
-            run_finite_session(harness, sensor, 3000)
-            log, counters = sensor.log, harness.node.counters
-            assert log.duplicate > 50 and log.late > 50
-            rows = harness.rows()
-            sequences = [sequence for sequence, _, _ in rows]
-            assert sequences == sorted(set(sequences))  # strictly increasing: no repeat
-            times = [time_us for _, time_us, _ in rows]
-            assert times == sorted(set(times))
-            assert check_batches_are_gap_free_and_true(harness, sensor) == len(rows)
-            # a late frame cannot be placed after its successor: counted, not published;
-            # nothing was lost on the line
-            assert counters['published_samples'] + log.late == len(sensor.delivered)
-            values = final_counters(harness)
-            assert int(values['duplicate_frames']) == log.duplicate
-            assert int(values['late_frames']) == log.late
-            assert int(values['dropped_frames']) == log.dropped == 0
-            assert int(values['corrupt_frames']) == 0
-            assert set(COUNTER_KEYS) <= set(values)
-        finally:
-            harness.close()
+    with (EmulatedSensor(link, faults=plan, seed=32, max_scans=3000) as sensor,
+          Harness(link, reliable=True, diagnostics_period=0.2) as harness):
+        run_finite_session(harness, sensor, 3000)
+        log, counters = sensor.log, harness.node.counters
+        assert log.duplicate > 50 and log.late > 50
+        rows = harness.rows()
+        sequences = [sequence for sequence, _, _ in rows]
+        assert sequences == sorted(set(sequences))  # strictly increasing: no repeat
+        times = [time_us for _, time_us, _ in rows]
+        assert times == sorted(set(times))
+        assert check_batches_are_gap_free_and_true(harness, sensor) == len(rows)
+        # a late frame cannot be placed after its successor: counted, not published;
+        # nothing was lost on the line
+        assert counters['published_samples'] + log.late == len(sensor.delivered)
+        values = final_counters(harness)
+        assert int(values['duplicate_frames']) == log.duplicate
+        assert int(values['late_frames']) == log.late
+        assert int(values['dropped_frames']) == log.dropped == 0
+        assert int(values['corrupt_frames']) == 0
+        assert set(COUNTER_KEYS) <= set(values)
 
 
 def test_device_restart_without_start_is_a_new_session_with_a_new_clock(link):
-    with EmulatedSensor(link, seed=33) as sensor:
-        harness = Harness(link, diagnostics_period=0.2)
-        try:
-            node = harness.node
-            node.trigger_configure()
-            node.trigger_activate()
-            assert harness.wait(lambda: node.counters['published_samples'] > 1000)
-            starts = sum(c.command == Command.START for c in sensor.commands)
-            sensor.inject('restart')
-            assert harness.wait(lambda: sensor.log.restarts == 1)
-            before = len(harness.frames)
-            assert harness.wait(lambda: sum(m.sample_count for m in harness.frames[before:])
-                                > 2000, 20.0)
-            node.trigger_deactivate()
-            assert sensor.sessions == 2
-            assert sum(c.command == Command.START for c in sensor.commands) == starts
-            sequences = [m.first_sequence for m in harness.frames]
-            assert sequences == sorted(sequences)  # monotonic across the restart
-            check_batches_are_gap_free_and_true(harness, sensor)
-            # the restarted clock (1 s after boot) is mapped afresh: stamps of the new
-            # session = true sample instant + transport latency
-            system_minus_monotonic = harness.system_minus_monotonic_ns()
-            restarted = [m for m in harness.frames if m.device_time_us < 4_000_000]
-            assert len(restarted) > 50
-            for message in restarted[len(restarted) // 2:]:
-                stamp_ns = message.header.stamp.sec * 10**9 + message.header.stamp.nanosec
-                error_s = (stamp_ns - system_minus_monotonic
-                           - sensor.host_ns_of_device_time(message.device_time_us)) * 1e-9
-                assert -0.001 < error_s < 0.020
-            values = final_counters(harness)
-            assert values['restarts'] == '1'
-            assert values['dropped_frames'] == '0' and values['reader_errors'] == '0'
-        finally:
-            harness.close()
+    with (EmulatedSensor(link, seed=33) as sensor,
+          Harness(link, diagnostics_period=0.2) as harness):
+        node = harness.activate()
+        assert harness.wait_published(1000)
+        starts = sum(c.command == Command.START for c in sensor.commands)
+        sensor.inject('restart')
+        assert harness.wait(lambda: sensor.log.restarts == 1)
+        before = len(harness.frames)
+        assert harness.wait(lambda: sum(m.sample_count for m in harness.frames[before:])
+                            > 2000, 20.0)
+        node.trigger_deactivate()
+        assert sensor.sessions == 2
+        assert sum(c.command == Command.START for c in sensor.commands) == starts
+        sequences = [m.first_sequence for m in harness.frames]
+        assert sequences == sorted(sequences)  # monotonic across the restart
+        check_batches_are_gap_free_and_true(harness, sensor)
+        # the restarted clock (1 s after boot) is mapped afresh: stamps of the new
+        # session = true sample instant + transport latency
+        system_minus_monotonic = harness.system_minus_monotonic_ns()
+        restarted = [m for m in harness.frames if m.device_time_us < 4_000_000]
+        assert len(restarted) > 50
+        for message in restarted[len(restarted) // 2:]:
+            stamp_ns = message.header.stamp.sec * 10**9 + message.header.stamp.nanosec
+            error_s = (stamp_ns - system_minus_monotonic
+                       - sensor.host_ns_of_device_time(message.device_time_us)) * 1e-9
+            assert -0.001 < error_s < 0.020
+        values = final_counters(harness)
+        assert values['restarts'] == '1'
+        assert values['dropped_frames'] == '0' and values['reader_errors'] == '0'
 
 
 def level_sequence(harness: Harness, start: int) -> list[tuple[bytes, str, dict[str, str]]]:
@@ -163,58 +149,48 @@ def level_sequence(harness: Harness, start: int) -> list[tuple[bytes, str, dict[
 
 
 def test_reader_error_is_reported_and_the_stream_goes_on(link):
-    with EmulatedSensor(link, seed=34) as sensor:
-        harness = Harness(link, diagnostics_period=0.2, error_hold=1.0)
-        try:
-            node = harness.node
-            node.trigger_configure()
-            node.trigger_activate()
-            assert harness.wait(lambda: node.counters['published_samples'] > 1000)
-            start = len(diagnostic_records(harness))
-            node.inject_reader_fault(RuntimeError('injected decoder failure'))
-            assert harness.wait(lambda: any(
-                level == DiagnosticStatus.ERROR and 'injected decoder failure' in message
-                for level, message, _ in level_sequence(harness, start)), 10.0)
-            published = node.counters['published_samples']
-            assert harness.wait(lambda: node.counters['published_samples'] > published + 1000)
-            # after error_hold the level returns to OK (or WARN for a low rate in a short
-            # period); the count and the text stay
-            error_at = next(i for i, (level, _, _) in enumerate(level_sequence(harness, start))
-                            if level == DiagnosticStatus.ERROR)
-            assert harness.wait(lambda: any(
-                level != DiagnosticStatus.ERROR
-                for level, _, _ in level_sequence(harness, start)[error_at:]), 10.0)
-            node.trigger_deactivate()
-            level, message, values = next(
-                record for record in level_sequence(harness, start)[error_at:]
-                if record[0] != DiagnosticStatus.ERROR)
-            assert level in (DiagnosticStatus.OK, DiagnosticStatus.WARN)
-            assert 'reader error' not in message
-            assert values['reader_errors'] == '1'
-            assert 'decode: RuntimeError: injected decoder failure' in values['last_reader_error']
-            # the chunk lost to the error is a counted sequence gap, nothing else is lost
-            assert node.counters['dropped_frames'] > 0
-            check_batches_are_gap_free_and_true(harness, sensor)
-        finally:
-            harness.close()
+    with (EmulatedSensor(link, seed=34) as sensor,
+          Harness(link, diagnostics_period=0.2, error_hold=1.0) as harness):
+        node = harness.activate()
+        assert harness.wait_published(1000)
+        start = len(diagnostic_records(harness))
+        node.inject_reader_fault(RuntimeError('injected decoder failure'))
+        assert harness.wait(lambda: any(
+            level == DiagnosticStatus.ERROR and 'injected decoder failure' in message
+            for level, message, _ in level_sequence(harness, start)), 10.0)
+        published = node.counters['published_samples']
+        assert harness.wait_published(published + 1000)
+        # after error_hold the level returns to OK (or WARN for a low rate in a short
+        # period); the count and the text stay
+        error_at = next(i for i, (level, _, _) in enumerate(level_sequence(harness, start))
+                        if level == DiagnosticStatus.ERROR)
+        assert harness.wait(lambda: any(
+            level != DiagnosticStatus.ERROR
+            for level, _, _ in level_sequence(harness, start)[error_at:]), 10.0)
+        node.trigger_deactivate()
+        level, message, values = next(
+            record for record in level_sequence(harness, start)[error_at:]
+            if record[0] != DiagnosticStatus.ERROR)
+        assert level in (DiagnosticStatus.OK, DiagnosticStatus.WARN)
+        assert 'reader error' not in message
+        assert values['reader_errors'] == '1'
+        assert 'decode: RuntimeError: injected decoder failure' in values['last_reader_error']
+        # the chunk lost to the error is a counted sequence gap, nothing else is lost
+        assert node.counters['dropped_frames'] > 0
+        check_batches_are_gap_free_and_true(harness, sensor)
 
 
 def test_a_dead_reader_thread_is_restarted_never_active_and_silent(link):
-    with EmulatedSensor(link, seed=35):
-        harness = Harness(link, diagnostics_period=0.2, error_hold=1.0)
-        try:
-            node = harness.node
-            node.trigger_configure()
-            node.trigger_activate()
-            assert harness.wait(lambda: node.counters['published_samples'] > 500)
-            start = len(diagnostic_records(harness))
-            node.inject_reader_fault(SystemExit('injected thread death'))  # passes the guard
-            assert harness.wait(lambda: any(
-                values.get('reader_restarts') == '1' and level == DiagnosticStatus.ERROR
-                and 'reader thread ended: SystemExit' in message
-                for level, message, values in level_sequence(harness, start)), 10.0)
-            published = node.counters['published_samples']
-            assert harness.wait(lambda: node.counters['published_samples'] > published + 1000)
-            assert node.lifecycle_state == 'active'
-        finally:
-            harness.close()
+    with (EmulatedSensor(link, seed=35),
+          Harness(link, diagnostics_period=0.2, error_hold=1.0) as harness):
+        node = harness.activate()
+        assert harness.wait_published(500)
+        start = len(diagnostic_records(harness))
+        node.inject_reader_fault(SystemExit('injected thread death'))  # passes the guard
+        assert harness.wait(lambda: any(
+            values.get('reader_restarts') == '1' and level == DiagnosticStatus.ERROR
+            and 'reader thread ended: SystemExit' in message
+            for level, message, values in level_sequence(harness, start)), 10.0)
+        published = node.counters['published_samples']
+        assert harness.wait_published(published + 1000)
+        assert node.lifecycle_state == 'active'
