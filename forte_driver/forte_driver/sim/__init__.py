@@ -10,24 +10,21 @@ See docs/simulation.md for the model, its parameters and its cost.
 """
 from .catalogue import CATEGORIES, INDENTORS, OBJECTS, IndentorSpec, ObjectSpec, objects_in_category
 from .model import CHANNEL_NAMES, DEFAULT_MODEL, QUANTUM, SAMPLE_PERIOD, SAMPLE_RATE, GripperModel
-from .scene import (
+from .scene import SCENE_NAMES, SLIP_CHARACTERIZATION_OBJECTS, Scene, make_scene
+from .state import TICK_SAMPLES
+from .truth import (
     OBJECT_BROKEN,
     OBJECT_CRUSHED,
     OBJECT_DROPPED,
     OBJECT_HELD,
     OBJECT_NONE,
     OBJECT_RESTING,
-    SCENE_NAMES,
-    SLIP_CHARACTERIZATION_OBJECTS,
     SLIP_GROSS,
     SLIP_INCIPIENT,
     SLIP_NONE,
     SLIP_ROTATIONAL,
     SLIP_STICK_SLIP,
-    TICK_SAMPLES,
-    Scene,
     SceneTruth,
-    make_scene,
 )
 
 __all__ = [

@@ -99,7 +99,7 @@ def _spec(*args, **kwargs) -> ObjectSpec:
     return ObjectSpec(*args, **kwargs)
 
 
-_OBJECT_LIST = (
+_OBJECT_LIST: tuple[ObjectSpec, ...] = (
     # ---------------- fragile / rigid (7) ----------------
     _spec('raw_egg', 'fragile_rigid', 0.060, 0.044, 0.057, 'round', 0.45, 0.35, wrap_gain=2.0,
           break_force=30.0, failure='broken', com_offset=0.006, contact_location=0.35,
@@ -178,33 +178,39 @@ _OBJECT_LIST = (
           provenance='mass/size typical; wet peeled egg friction and taper estimate'),
     _spec('glass_ornament', 'slippery', 0.030, 0.060, 0.060, 'round', 0.30, 0.22,
           wrap_gain=2.5, contact_location=0.35, provenance='estimate'),
-    # ---------------- everyday (8, YCB food items; apple from the paper) ----------------
+    # ---------------- everyday (8: apple from the paper, then _YCB_EVERYDAY) ------------
     _spec('apple', 'everyday', 0.231, 0.075, 0.075, 'round', 0.80, 0.60, wrap_gain=3.0,
           stiffness=30.0, com_offset=0.006, contact_location=0.4, torsion_radius=0.012,
           provenance='weight 2.27 N and theta_zeroF 0.552 rad from paper; wrap fitted to '
                      "paper's theta_grasp 0.527 rad; stiffness literature order"),
-    _spec('tomato_soup_can', 'everyday', 0.349, 0.066, 0.102, 'straight', 0.45, 0.32,
-          contact_location=0.4, torsion_radius=0.010,
-          provenance='mass/size ycb; friction estimate'),
-    _spec('mustard_bottle', 'everyday', 0.603, 0.058, 0.190, 'straight', 0.55, 0.40,
-          com_offset=0.008, contact_location=0.4, torsion_radius=0.012,
-          provenance='mass/size ycb; friction estimate'),
-    _spec('sugar_box', 'everyday', 0.514, 0.038, 0.175, 'straight', 0.65, 0.50,
-          contact_location=0.4, torsion_radius=0.012,
-          provenance='mass/size ycb; card friction estimate'),
-    _spec('cracker_box', 'everyday', 0.411, 0.060, 0.210, 'straight', 0.65, 0.50,
-          com_offset=0.008, contact_location=0.4, torsion_radius=0.012,
-          provenance='mass/size ycb; card friction estimate'),
-    _spec('pudding_box', 'everyday', 0.187, 0.035, 0.089, 'straight', 0.65, 0.50,
-          contact_location=0.35, torsion_radius=0.010,
-          provenance='mass/size ycb; card friction estimate'),
-    _spec('gelatin_box', 'everyday', 0.097, 0.028, 0.073, 'straight', 0.65, 0.50,
-          contact_location=0.3, torsion_radius=0.010,
-          provenance='mass/size ycb; card friction estimate'),
-    _spec('potted_meat_can', 'everyday', 0.370, 0.050, 0.083, 'straight', 0.45, 0.33,
-          contact_location=0.4, torsion_radius=0.010,
-          provenance='mass/size ycb; friction estimate'),
 )
+
+#: The straight-sided everyday objects of the YCB set, mass and size from its object list:
+#: name, mass [kg], width [m], height [m], mu_static, mu_kinetic, contact_location [-],
+#: torsion_radius [m], com_offset [m], what the friction estimate is based on.
+_YCB_EVERYDAY = (
+    ('tomato_soup_can', 0.349, 0.066, 0.102, 0.45, 0.32, 0.4, 0.010, 0.003, ''),
+    ('mustard_bottle', 0.603, 0.058, 0.190, 0.55, 0.40, 0.4, 0.012, 0.008, ''),
+    ('sugar_box', 0.514, 0.038, 0.175, 0.65, 0.50, 0.4, 0.012, 0.003, 'card'),
+    ('cracker_box', 0.411, 0.060, 0.210, 0.65, 0.50, 0.4, 0.012, 0.008, 'card'),
+    ('pudding_box', 0.187, 0.035, 0.089, 0.65, 0.50, 0.35, 0.010, 0.003, 'card'),
+    ('gelatin_box', 0.097, 0.028, 0.073, 0.65, 0.50, 0.3, 0.010, 0.003, 'card'),
+    ('potted_meat_can', 0.370, 0.050, 0.083, 0.45, 0.33, 0.4, 0.010, 0.003, ''),
+)
+
+
+def _ycb_everyday(name: str, mass: float, width: float, height: float, mu_static: float,
+                  mu_kinetic: float, contact_location: float, torsion_radius: float,
+                  com_offset: float, friction_basis: str) -> ObjectSpec:
+    """An everyday object of :data:`_YCB_EVERYDAY` (straight-sided box, can or bottle)."""
+    friction = f'{friction_basis} friction' if friction_basis else 'friction'
+    return ObjectSpec(name, 'everyday', mass, width, height, 'straight', mu_static, mu_kinetic,
+                      com_offset=com_offset, contact_location=contact_location,
+                      torsion_radius=torsion_radius,
+                      provenance=f'mass/size ycb; {friction} estimate')
+
+
+_OBJECT_LIST += tuple(_ycb_everyday(*row) for row in _YCB_EVERYDAY)
 
 #: Every object type of the grasp benchmark, by name.
 OBJECTS: dict[str, ObjectSpec] = {spec.name: spec for spec in _OBJECT_LIST}

@@ -98,3 +98,47 @@ class SensorNoise:
             hi = min(stop, offset + NOISE_BLOCK) - offset
             parts.append(self._blocks[block][lo:hi])
         return np.concatenate(parts, axis=0)
+
+
+#: Samples per block of load cell noise (1 s at 2 kHz).
+LOAD_CELL_BLOCK = 2000
+
+_LOAD_CELL_STREAM = 0x10AD
+
+
+def load_cell_reading(force: np.ndarray, first_sample: int, seed: int,
+                      noise_std: float) -> np.ndarray:
+    """Load cell reading: the true force plus noise drawn in fixed blocks.
+
+    Every block of :data:`LOAD_CELL_BLOCK` samples draws from its own generator seeded by
+    (seed, stream, block index), so any chunking yields the same stream.
+
+    Parameters
+    ----------
+    force : numpy.ndarray, shape (n,)
+        True force of samples [first_sample, first_sample + n) [N].
+    first_sample : int
+        Sample index of the first row since the scene started.
+    seed : int
+        Seed of the scene.
+    noise_std : float
+        Standard deviation of the load cell noise [N].
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+    """
+    noise = np.empty_like(force)
+    block = LOAD_CELL_BLOCK
+    stop = first_sample + len(force)
+    position = first_sample
+    while position < stop:
+        block_index = position // block
+        block_start = block_index * block
+        rng = np.random.default_rng((seed, _LOAD_CELL_STREAM, block_index))
+        values = rng.standard_normal(block) * noise_std
+        lo = position - block_start
+        hi = min(stop, block_start + block) - block_start
+        noise[position - first_sample:position - first_sample + hi - lo] = values[lo:hi]
+        position = block_start + hi
+    return force + noise

@@ -3,8 +3,8 @@
 Thin ROS shell over :func:`forte_driver.sim.make_scene`:
 
 * publishes ``tactile/frames`` (forte_msgs/TactileFrames, batches of ``batch_size`` raw
-  samples, sensor-data QoS or reliable with ``reliable:=true``), stamped with the sample
-  time of the first row (simulation start + sample index / 2 kHz);
+  samples, the contract's sensor-data QoS or reliable with ``reliable:=true``), stamped with
+  the sample time of the first row (simulation start + sample index / 2 kHz);
 * publishes ``joint_states`` (sensor_msgs/JointState: forte_left_finger_joint,
   forte_right_finger_joint; position [rad], velocity [rad/s], effort = servo current [A])
   and ``sim/ground_truth`` (forte_msgs/SimGroundTruth) once per batch;
@@ -29,7 +29,7 @@ import math
 import threading
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistStamped
 from rcl_interfaces.msg import (
     FloatingPointRange,
@@ -38,12 +38,6 @@ from rcl_interfaces.msg import (
     SetParametersResult,
 )
 from rclpy.lifecycle import LifecycleState, TransitionCallbackReturn
-from rclpy.qos import (
-    HistoryPolicy,
-    QoSProfile,
-    ReliabilityPolicy,
-    qos_profile_sensor_data,
-)
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -57,6 +51,8 @@ from forte_driver.sim import (
 )
 from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileFrames
 from forte_ros import ForteLifecycleNode, run_node
+from forte_ros.diagnostics import OK, diagnostic_array, diagnostic_status
+from forte_ros.qos import COMMANDS, DIAGNOSTICS, GROUND_TRUTH, SENSOR_FRAMES, reliable
 
 LEFT_JOINT = 'forte_left_finger_joint'
 RIGHT_JOINT = 'forte_right_finger_joint'
@@ -67,9 +63,47 @@ FAST_PERIOD = 1e-4          # timer period at real_time_factor 0 (free running) 
 RELIABLE_FRAMES_DEPTH = 1000    # reliable frames queue: 10 s of batches for slow readers
 
 
-def _reliable(depth: int) -> QoSProfile:
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
-                      reliability=ReliabilityPolicy.RELIABLE)
+def _integers(low: int, high: int) -> IntegerRange:
+    """Any integer in [low, high]."""
+    return IntegerRange(from_value=low, to_value=high, step=1)
+
+
+def _floats(low: float, high: float) -> FloatingPointRange:
+    """Any value in [low, high]."""
+    return FloatingPointRange(from_value=low, to_value=high, step=0.0)
+
+
+#: Every parameter of the node: name -> (default, description, value range or None,
+#: read only), in the order of declaration. The scene's parameters
+#: (:data:`SCENE_PARAMETERS`) apply at the next configure (cleanup + configure = a new scene).
+PARAMETERS: dict[str, tuple[object, str, IntegerRange | FloatingPointRange | None, bool]] = {
+    'scene': ('grasp', f'scene name, one of {", ".join(SCENE_NAMES)} (applies at configure)',
+              None, False),
+    'object': ('apple', 'object type (grasp scenes, see forte_driver.sim.OBJECTS) or indentor '
+               'name (calibration scene) (applies at configure)', None, False),
+    'seed': (0, 'seed of every random draw of the scene (applies at configure)',
+             _integers(0, 2 ** 31 - 1), False),
+    'trial': (0, 'trial index reported in sim/ground_truth (applies at configure)',
+              _integers(0, 2 ** 31 - 1), False),
+    'real_time_factor': (1.0, 'simulated seconds per wall second; 0 = as fast as possible',
+                         _floats(0.0, 1000.0), False),
+    'publish_clock': (False, 'publish /clock (rosgraph_msgs/Clock) with the simulation time',
+                      None, True),
+    'clock_rate': (20.0, '/clock messages per simulated second (at most one per batch): every '
+                   '/clock message wakes every node on the simulation clock, so it is kept '
+                   'low; nodes that need finer time read the sample stamps [Hz]',
+                   _floats(1.0, 2000.0), True),
+    'reliable': (False, 'reliable QoS on tactile/frames (for recording); default sensor data '
+                 'QoS', None, True),
+    'batch_size': (20, 'samples per TactileFrames message', _integers(1, 2000), True),
+    'frame_id': ('forte_base_link', 'frame_id of tactile/frames', None, True),
+    'timer_period': (0.01, 'wall period of the production timer in real time [s]',
+                     _floats(0.001, 0.1), True),
+    'cmd_vel_timeout': (0.5, 'the arm stops when no arm/cmd_vel arrived for this long '
+                        '(simulated) [s]', _floats(0.01, 60.0), False),
+    'autostart': (True, 'configure and activate at start-up without a lifecycle manager',
+                  None, True),
+}
 
 
 class SimNode(ForteLifecycleNode):
@@ -101,64 +135,25 @@ class SimNode(ForteLifecycleNode):
         self._overruns = 0
         self._batches = 0
         self._diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, '/diagnostics', _reliable(10))
+            DiagnosticArray, '/diagnostics', DIAGNOSTICS)
         self._diagnostics_timer = self.create_timer(1.0, self._publish_diagnostics)
         self._rate_window = (time.monotonic(), 0)
         self._achieved_factor = 0.0
         self.create_subscription(ServoCommand, 'gripper/command', self._on_servo_command,
-                                 _reliable(10))
-        self.create_subscription(TwistStamped, 'arm/cmd_vel', self._on_cmd_vel, _reliable(10))
+                                 COMMANDS)
+        self.create_subscription(TwistStamped, 'arm/cmd_vel', self._on_cmd_vel, COMMANDS)
         if self.get_parameter('autostart').value:
             if self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
                 self.trigger_activate()
 
     # ------------------------------------------------------------------ parameters
     def _declare_parameters(self) -> None:
-        def describe(text: str, read_only: bool = True, floats=None, integers=None):
-            return ParameterDescriptor(description=text, read_only=read_only,
-                                       floating_point_range=floats or [],
-                                       integer_range=integers or [])
-
-        # the scene's parameters apply at the next configure (cleanup + configure = a new scene)
-        self.declare_parameter('scene', 'grasp', describe(
-            f'scene name, one of {", ".join(SCENE_NAMES)} (applies at configure)',
-            read_only=False))
-        self.declare_parameter('object', 'apple', describe(
-            'object type (grasp scenes, see forte_driver.sim.OBJECTS) or indentor name '
-            '(calibration scene) (applies at configure)', read_only=False))
-        self.declare_parameter('seed', 0, describe(
-            'seed of every random draw of the scene (applies at configure)', read_only=False,
-            integers=[IntegerRange(from_value=0, to_value=2 ** 31 - 1, step=1)]))
-        self.declare_parameter('trial', 0, describe(
-            'trial index reported in sim/ground_truth (applies at configure)', read_only=False,
-            integers=[
-                IntegerRange(from_value=0, to_value=2 ** 31 - 1, step=1)]))
-        self.declare_parameter('real_time_factor', 1.0, describe(
-            'simulated seconds per wall second; 0 = as fast as possible', read_only=False,
-            floats=[FloatingPointRange(from_value=0.0, to_value=1000.0, step=0.0)]))
-        self.declare_parameter('publish_clock', False, describe(
-            'publish /clock (rosgraph_msgs/Clock) with the simulation time'))
-        self.declare_parameter('clock_rate', 20.0, describe(
-            '/clock messages per simulated second (at most one per batch): every /clock '
-            'message wakes every node on the simulation clock, so it is kept low; nodes that '
-            'need finer time read the sample stamps [Hz]',
-            floats=[FloatingPointRange(from_value=1.0, to_value=2000.0, step=0.0)]))
-        self.declare_parameter('reliable', False, describe(
-            'reliable QoS on tactile/frames (for recording); default sensor data QoS'))
-        self.declare_parameter('batch_size', 20, describe(
-            'samples per TactileFrames message', integers=[
-                IntegerRange(from_value=1, to_value=2000, step=1)]))
-        self.declare_parameter('frame_id', 'forte_base_link', describe(
-            'frame_id of tactile/frames'))
-        self.declare_parameter('timer_period', 0.01, describe(
-            'wall period of the production timer in real time [s]',
-            floats=[FloatingPointRange(from_value=0.001, to_value=0.1, step=0.0)]))
-        self.declare_parameter('cmd_vel_timeout', 0.5, describe(
-            'the arm stops when no arm/cmd_vel arrived for this long (simulated) [s]',
-            read_only=False,
-            floats=[FloatingPointRange(from_value=0.01, to_value=60.0, step=0.0)]))
-        self.declare_parameter('autostart', True, describe(
-            'configure and activate at start-up without a lifecycle manager'))
+        for name, (default, description, value_range, read_only) in PARAMETERS.items():
+            self.declare_parameter(name, default, ParameterDescriptor(
+                description=description, read_only=read_only,
+                integer_range=[value_range] if isinstance(value_range, IntegerRange) else [],
+                floating_point_range=([value_range] if isinstance(value_range, FloatingPointRange)
+                                      else [])))
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         for parameter in parameters:
@@ -201,17 +196,19 @@ class SimNode(ForteLifecycleNode):
             self.get_logger().error(f'cannot build the scene: {error}')
             return TransitionCallbackReturn.FAILURE
         self._servo_command = self._scene.initial_angle
-        frames_qos = (_reliable(RELIABLE_FRAMES_DEPTH) if self.get_parameter('reliable').value
-                      else qos_profile_sensor_data)
+        # reliable frames (recording) keep a deeper queue than the contract's 50, so slow
+        # readers of a free-running simulation lose nothing
+        frames_qos = (reliable(RELIABLE_FRAMES_DEPTH) if self.get_parameter('reliable').value
+                      else SENSOR_FRAMES)
         self._frames_publisher = self.create_lifecycle_publisher(
             TactileFrames, 'tactile/frames', frames_qos)
         self._joint_publisher = self.create_lifecycle_publisher(
-            JointState, 'joint_states', _reliable(10))
+            JointState, 'joint_states', COMMANDS)
         self._truth_publisher = self.create_lifecycle_publisher(
-            SimGroundTruth, 'sim/ground_truth', _reliable(50))
+            SimGroundTruth, 'sim/ground_truth', GROUND_TRUTH)
         if self.get_parameter('publish_clock').value:
             self._clock_publisher = self.create_lifecycle_publisher(
-                Clock, '/clock', _reliable(10))
+                Clock, '/clock', reliable(10))
             # samples per /clock message (clock_rate is read-only)
             self._clock_tick = max(1, round(1.0 / (float(self.get_parameter('clock_rate').value)
                                                    * SAMPLE_PERIOD)))
@@ -402,27 +399,22 @@ class SimNode(ForteLifecycleNode):
         if now > started:
             self._achieved_factor = (samples - count) * SAMPLE_PERIOD / (now - started)
         self._rate_window = (now, samples)
-        status = DiagnosticStatus()
-        status.name = f'{self.get_name()}: simulated scene'
-        status.hardware_id = 'forte_sim'
-        status.level = DiagnosticStatus.OK
-        status.message = 'running' if self._timer is not None else 'inactive'
         values = {
             'scene': self.get_parameter('scene').value,
             'object': self.get_parameter('object').value,
             'simulated_seconds': f'{samples * SAMPLE_PERIOD:.3f}',
             'achieved_real_time_factor': f'{self._achieved_factor:.2f}',
-            'requested_real_time_factor': f'{self.get_parameter("real_time_factor").value}',
-            'batches': str(self._batches),
-            'schedule_overruns': str(self._overruns),
-            'rejected_commands': str(self._rejected_commands),
-            'clamped_commands': str(self._scene.clamped_commands if self._scene else 0),
+            'requested_real_time_factor': self.get_parameter('real_time_factor').value,
+            'batches': self._batches,
+            'schedule_overruns': self._overruns,
+            'rejected_commands': self._rejected_commands,
+            'clamped_commands': self._scene.clamped_commands if self._scene else 0,
         }
-        status.values = [KeyValue(key=key, value=value) for key, value in values.items()]
-        array = DiagnosticArray()
-        array.header.stamp = self.get_clock().now().to_msg()
-        array.status = [status]
-        self._diagnostics_publisher.publish(array)
+        status = diagnostic_status(f'{self.get_name()}: simulated scene', OK,
+                                   'running' if self._timer is not None else 'inactive',
+                                   values, hardware_id='forte_sim')
+        self._diagnostics_publisher.publish(
+            diagnostic_array(self.get_clock().now().to_msg(), [status]))
 
 
 def main(args: list[str] | None = None) -> int:

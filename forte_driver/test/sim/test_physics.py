@@ -18,25 +18,14 @@ from forte_driver.sim import (
     make_scene,
 )
 from forte_driver.sim.scene import TICK_SAMPLES
+from forte_driver.sim.testing import (
+    close_to_force,
+    hold,
+    median_filtered,
+    slip_characterisation_trial,
+)
 
 FS = 2000
-
-
-def _hold(scene, seconds, command, lift_velocity=0.0, **limits):
-    """Step a scene for ``seconds`` with fixed commands; frames and per-sample truth."""
-    frames, truth = scene.step(int(seconds * FS), command, lift_velocity, **limits)
-    return frames, truth
-
-
-def _close_to_force(scene, target):
-    """Close in 1 mrad steps until the mean true finger force reaches ``target`` [N]."""
-    theta = scene.joint_position
-    force = 0.0
-    while force < target:
-        theta -= 0.001
-        _, truth = scene.step(20, theta, 0.0)
-        force = truth.finger_force[-1].mean()
-    return theta
 
 
 def _tared(frames, baseline):
@@ -46,11 +35,11 @@ def _tared(frames, baseline):
 @pytest.mark.parametrize('indentor', ['flat_wide', 'sphere'])
 def test_force_rises_monotonically_with_closure(indentor):
     scene = make_scene('calibration', indentor=indentor, seed=1)
-    quiet, _ = _hold(scene, 0.5, scene.initial_angle)
+    quiet, _ = hold(scene, 0.5, scene.initial_angle)
     baseline = quiet.mean(axis=0)
     forces, distal = [], []
     for theta in np.linspace(scene.theta_zero_force, 0.0, 12):
-        frames, truth = _hold(scene, 0.4, float(theta))
+        frames, truth = hold(scene, 0.4, float(theta))
         forces.append(truth.load_cell_force[-200:].mean())
         distal.append(_tared(frames[-200:], baseline)[:, [0, 3]].mean())
     forces = np.array(forces)
@@ -62,11 +51,11 @@ def test_force_rises_monotonically_with_closure(indentor):
 
 def test_force_relaxes_at_constant_closure_while_the_sensor_holds():
     scene = make_scene('calibration', indentor='cylinder_large', seed=2)
-    quiet, _ = _hold(scene, 1.0, scene.initial_angle)
+    quiet, _ = hold(scene, 1.0, scene.initial_angle)
     baseline = quiet.mean(axis=0)
-    _, truth = _hold(scene, 1.0, 0.1)           # close (ramp ~0.5 s) and settle
+    _, truth = hold(scene, 1.0, 0.1)           # close (ramp ~0.5 s) and settle
     early = truth.finger_force[-100:].mean()
-    frames, truth = _hold(scene, 15.0, 0.1)
+    frames, truth = hold(scene, 15.0, 0.1)
     late = truth.finger_force[-100:].mean()
     # stress relaxation of the elastomer: 5-25 % within 15 s, never a rise
     assert 0.75 * early < late < 0.95 * early
@@ -79,8 +68,8 @@ def test_force_relaxes_at_constant_closure_while_the_sensor_holds():
 @pytest.mark.parametrize('indentor', sorted(INDENTORS))
 def test_distal_channels_respond_most(indentor):
     scene = make_scene('calibration', indentor=indentor, seed=3)
-    quiet, _ = _hold(scene, 0.5, scene.initial_angle)
-    frames, _ = _hold(scene, 2.0, 0.3 * scene.theta_zero_force)
+    quiet, _ = hold(scene, 0.5, scene.initial_angle)
+    frames, _ = hold(scene, 2.0, 0.3 * scene.theta_zero_force)
     response = (frames[-1000:] - quiet.mean(axis=0)).mean(axis=0)
     for distal, middle, root in ((0, 1, 2), (3, 4, 5)):
         assert response[distal] > response[middle] > 0.0
@@ -95,24 +84,11 @@ def _band_max_db(x):
     return 10 * np.log10(power[band].max() + 1e-12)
 
 
-def _slip_trial(object_name, seed, lift_seconds=8.0):
-    """Slip characterisation trial: grip below theta_grasp, lift at 1 mm/s."""
-    scene = make_scene('slip_characterization', object_name=object_name, seed=seed)
-    theta = scene.theta_zero_force - 0.015
-    quiet, _ = _hold(scene, 1.0, scene.initial_angle)
-    settle, _ = _hold(scene, 2.0, theta)
-    frames, truth = _hold(scene, lift_seconds, theta, 0.001)
-    raw = np.vstack((quiet, settle, frames))
-    offset = len(quiet) + len(settle)
-    return scene, raw, truth, offset
-
-
 def test_stick_slip_raises_10_to_50_hz_power_at_labelled_onsets():
-    _, raw, truth, offset = _slip_trial('apple', seed=0)
+    _, raw, truth, offset = slip_characterisation_trial('apple', seed=0)
     onsets = truth.slip_onset_indices[truth.slip_onset_types == SLIP_STICK_SLIP] + offset
     assert len(onsets) >= 2
-    filtered = np.column_stack([medfilt(raw[:, c] - raw[:2000, c].mean(), 11)
-                                for c in range(6)])
+    filtered = median_filtered(raw, raw[:2000])
     rises = []
     for onset in onsets:
         if onset < 400 or onset + 400 > len(raw):
@@ -129,72 +105,30 @@ def test_stick_slip_raises_10_to_50_hz_power_at_labelled_onsets():
     assert np.max(np.abs(quiet)) < 3.0
 
 
-def test_paper_slip_detector_sees_the_labelled_slip():
-    slip = pytest.importorskip('forte_perception.slip')
-    _, raw, truth, offset = _slip_trial('jam_jar', seed=1)
-    onsets = truth.slip_onset_indices + offset
-    assert len(onsets) >= 1
-    filtered = np.column_stack([medfilt(raw[:, c] - raw[:2000, c].mean(), 11)
-                                for c in range(6)])
-    features = slip.slip_features(filtered)
-    detections = features.sample_index[features.slip & (features.sample_index >= offset)]
-    assert detections.size > 0
-    # every run of detections starts while the ground truth shows slip (within 150 ms)
-    starts = detections[np.concatenate(([True], np.diff(detections) > 4))]
-    slipping = truth.slip_type != 0
-    for start in starts:
-        recent = slipping[max(start - offset - int(0.15 * FS), 0):start - offset + 1]
-        assert recent.any(), f'detection at sample {start} without slip'
-    # every labelled onset is detected within 100 ms (paper: latency < 100 ms)
-    for onset in onsets:
-        assert np.any((detections >= onset) & (detections < onset + 0.1 * FS)), onset
-
-
-@pytest.mark.parametrize('name', ['chocolate_ball', 'potato_chip', 'strawberry'])
-def test_no_slip_labels_and_no_detection_when_the_grip_holds(name):
-    slip = pytest.importorskip('forte_perception.slip')
-    scene = make_scene('grasp', object_name=name, seed=4)
-    quiet, _ = _hold(scene, 1.0, scene.initial_angle)
-    theta = _close_to_force(scene, 0.25)                    # the paper's initial force
-    settle, _ = _hold(scene, 1.0, theta)
-    frames, truth = _hold(scene, 5.0, theta, 0.005)
-    assert truth.slip_onsets == 0
-    assert truth.object_state[-1] == OBJECT_HELD
-    assert truth.object_height[-1] > 0.015
-    # the closing steps are not kept: the detector needs only the settled window before
-    # the lift (400 samples) to judge the lift
-    raw = np.vstack((settle, frames))
-    filtered = np.column_stack([medfilt(raw[:, c] - quiet[:, c].mean(), 11)
-                                for c in range(6)])
-    features = slip.slip_features(filtered)
-    lifting = features.sample_index >= len(settle)
-    assert not features.slip[lifting].any()          # no false slip during the lift
-
-
 def test_too_little_force_fails_to_hold_a_heavy_object_enough_holds_it():
     weak = make_scene('grasp', object_name='soda_can', seed=5)
-    _hold(weak, 0.5, weak.initial_angle)
-    theta = _close_to_force(weak, 0.25)                     # the paper's initial force
-    _, truth = _hold(weak, 6.0, theta, 0.005)
+    hold(weak, 0.5, weak.initial_angle)
+    theta = close_to_force(weak, 0.25)                     # the paper's initial force
+    _, truth = hold(weak, 6.0, theta, 0.005)
     assert truth.slip_onsets >= 1
     assert OBJECT_HELD not in truth.object_state
     assert truth.object_height.max() < 0.002
     strong = make_scene('grasp', object_name='soda_can', seed=5)
-    _hold(strong, 0.5, strong.initial_angle)
-    _hold(strong, 1.5, 0.0)                                 # On-Off: full close
-    _, truth = _hold(strong, 6.0, 0.0, 0.005)
+    hold(strong, 0.5, strong.initial_angle)
+    hold(strong, 1.5, 0.0)                                 # On-Off: full close
+    _, truth = hold(strong, 6.0, 0.0, 0.005)
     assert truth.object_state[-1] == OBJECT_HELD
     assert truth.object_height[-1] > 0.02
 
 
 def test_loosening_the_grip_drops_a_lifted_object():
     scene = make_scene('grasp', object_name='tomato_soup_can', seed=6)
-    _hold(scene, 0.5, scene.initial_angle)
-    _hold(scene, 1.5, 0.15)
-    _, truth = _hold(scene, 4.0, 0.15, 0.005)
+    hold(scene, 0.5, scene.initial_angle)
+    hold(scene, 1.5, 0.15)
+    _, truth = hold(scene, 4.0, 0.15, 0.005)
     assert truth.object_state[-1] == OBJECT_HELD
     height = truth.object_height[-1]
-    _, truth = _hold(scene, 3.0, scene.theta_zero_force - 0.003, 0.0)
+    _, truth = hold(scene, 3.0, scene.theta_zero_force - 0.003, 0.0)
     assert truth.object_state[-1] == OBJECT_DROPPED
     assert truth.object_height[-1] == 0.0 < height
 
@@ -204,22 +138,22 @@ def test_loosening_the_grip_drops_a_lifted_object():
                                              ('potato_chip', OBJECT_BROKEN)])
 def test_full_close_destroys_fragile_objects(name, state):
     scene = make_scene('grasp', object_name=name, seed=7)
-    _hold(scene, 0.3, scene.initial_angle)
-    _, truth = _hold(scene, 2.5, 0.0)
+    hold(scene, 0.3, scene.initial_angle)
+    _, truth = hold(scene, 2.5, 0.0)
     assert truth.object_state[-1] == state
 
 
 def test_gentle_grip_lifts_fragile_objects_and_full_close_spares_the_raw_egg():
     for name in ('raspberry', 'potato_chip'):
         scene = make_scene('grasp', object_name=name, seed=8)
-        _hold(scene, 0.3, scene.initial_angle)
-        theta = _close_to_force(scene, 0.25)
-        _, truth = _hold(scene, 4.0, theta, 0.005)
+        hold(scene, 0.3, scene.initial_angle)
+        theta = close_to_force(scene, 0.25)
+        _, truth = hold(scene, 4.0, theta, 0.005)
         assert truth.object_state[-1] == OBJECT_HELD, name
         assert truth.finger_force[-1].max() < 0.6
     egg = make_scene('grasp', object_name='raw_egg', seed=8)
-    _hold(egg, 0.3, egg.initial_angle)
-    _, truth = _hold(egg, 2.5, 0.0)
+    hold(egg, 0.3, egg.initial_angle)
+    _, truth = hold(egg, 2.5, 0.0)
     assert truth.object_state[-1] == OBJECT_RESTING
     assert truth.finger_force[-1].min() > 3.0
 
@@ -285,10 +219,10 @@ def test_slip_characterisation_angles_match_the_paper(name, paper_grasp, paper_z
 
 def test_putting_a_held_object_back_down_leaves_it_resting():
     scene = make_scene('grasp', object_name='tomato_soup_can', seed=2)
-    _hold(scene, 0.5, scene.initial_angle)
-    _hold(scene, 1.5, 0.2)
-    _, truth = _hold(scene, 4.0, 0.2, 0.005)
+    hold(scene, 0.5, scene.initial_angle)
+    hold(scene, 1.5, 0.2)
+    _, truth = hold(scene, 4.0, 0.2, 0.005)
     assert truth.object_state[-1] == OBJECT_HELD
-    _, truth = _hold(scene, 5.0, 0.2, -0.005)
+    _, truth = hold(scene, 5.0, 0.2, -0.005)
     assert truth.lift_height[-1] == 0.0 and truth.object_height[-1] == 0.0
     assert truth.object_state[-1] == OBJECT_RESTING
