@@ -235,12 +235,17 @@ class SpinningGraph:
         while not self._closing.is_set() and self.context.ok():
             self.executor.spin_once(timeout_sec=0.05)
 
-    def close(self) -> None:
-        """Stop spinning, destroy every node (last added first), shut the context down."""
+    def stop(self) -> None:
+        """Stop spinning; the nodes still exist (for a clean-up of their own before
+        :meth:`close`)."""
         self._closing.set()
         if self._thread is not None:
             self._thread.join(timeout=5.0)
         self.executor.shutdown(timeout_sec=1.0)
+
+    def close(self) -> None:
+        """:meth:`stop`, destroy every node (last added first), shut the context down."""
+        self.stop()
         for node in reversed(self._nodes):
             node.destroy_node()
         rclpy.try_shutdown(context=self.context)

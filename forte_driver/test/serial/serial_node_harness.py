@@ -3,67 +3,17 @@ executor in a thread (real rclpy, real DDS), and the check of published rows aga
 the emulated device delivered."""
 from __future__ import annotations
 
-import threading
 import time
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from forte_driver.bench_devices.emulated_sensor import EmulatedSensor
 from forte_driver.serial.serial_sensor_node import SerialSensorNode
 from forte_msgs.msg import TactileFrames
-from forte_ros.qos import SENSOR_FRAMES, reliable
-from forte_ros.testing import check_isolated_network, wait_until
-
-try:
-    from forte_ros.testing import ExecutorThread
-except ImportError:  # until forte_ros.testing has it (issue 16): the same code, once here
-    class ExecutorThread:
-        """Nodes of a private rclpy context spun by one executor in a daemon thread.
-
-        The set-up every in-process node test repeats: ``rclpy.init`` of a fresh context,
-        the nodes built in :attr:`context`, one executor, one thread, and the tear-down in
-        reverse. Single-threaded on purpose: rclpy's MultiThreadedExecutor re-dispatches
-        ready entities in a loop (ros2/rclpy#1223) and starves the nodes' own threads (a
-        driver's reader) of the GIL.
-
-        Use: ``ros = ExecutorThread()``; build the nodes with ``context=ros.context``;
-        ``ros.spin(node, peer)``; at the end ``ros.close()`` (or :meth:`stop`, a clean-up
-        of the nodes' own, then :meth:`close`).
-        """
-
-        def __init__(self) -> None:
-            check_isolated_network()
-            self.context = rclpy.Context()
-            rclpy.init(context=self.context)
-            self.nodes: list[Node] = []
-            self.executor = SingleThreadedExecutor(context=self.context)
-            self._thread: threading.Thread | None = None
-
-        def spin(self, *nodes: Node) -> None:
-            """Add ``nodes`` to the executor and spin it in a daemon thread."""
-            for node in nodes:
-                self.executor.add_node(node)
-                self.nodes.append(node)
-            self._thread = threading.Thread(target=self.executor.spin, daemon=True)
-            self._thread.start()
-
-        def stop(self, timeout: float = 2.0) -> None:
-            """Shut the executor down and join its thread (the nodes still exist)."""
-            self.executor.shutdown(timeout_sec=timeout)
-            if self._thread is not None:
-                self._thread.join(timeout=timeout)
-
-        def close(self, timeout: float = 2.0) -> None:
-            """:meth:`stop`, destroy the nodes, shut the context down."""
-            self.stop(timeout)
-            for node in self.nodes:
-                node.destroy_node()
-            rclpy.try_shutdown(context=self.context)
+from forte_ros.qos import DIAGNOSTICS, SENSOR_FRAMES, reliable
+from forte_ros.testing import SpinningGraph, wait_until
 
 
 class Harness:
@@ -71,19 +21,17 @@ class Harness:
     manager (closes on exit)."""
 
     def __init__(self, port: str, **parameters) -> None:
-        self.ros = ExecutorThread()
+        self.ros = SpinningGraph('frames_listener')
         overrides = [Parameter('port', value=port)]
         overrides += [Parameter(name, value=value) for name, value in parameters.items()]
-        self.node = SerialSensorNode(context=self.ros.context, parameter_overrides=overrides)
-        self.listener = Node('frames_listener', context=self.ros.context)
-        self.frames: list[TactileFrames] = []
-        self.diagnostics: list[DiagnosticArray] = []
+        self.node = self.ros.add(
+            SerialSensorNode(context=self.ros.context, parameter_overrides=overrides))
         # reliable: a deeper queue than the contract's 50, a recorder must lose nothing
         qos = reliable(1000) if parameters.get('reliable', False) else SENSOR_FRAMES
-        self.listener.create_subscription(TactileFrames, 'tactile/frames', self.frames.append, qos)
-        self.listener.create_subscription(DiagnosticArray, '/diagnostics',
-                                          self.diagnostics.append, 10)
-        self.ros.spin(self.node, self.listener)
+        self.frames: list[TactileFrames] = self.ros.collect(TactileFrames, 'tactile/frames', qos)
+        self.diagnostics: list[DiagnosticArray] = self.ros.collect(
+            DiagnosticArray, '/diagnostics', DIAGNOSTICS)
+        self.ros.start()
 
     def __enter__(self) -> Harness:
         return self

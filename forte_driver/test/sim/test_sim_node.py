@@ -1,7 +1,6 @@
 """The simulated scene node with real rclpy: frames, joint states, ground truth, commands."""
 from __future__ import annotations
 
-import threading
 import time
 
 import numpy as np
@@ -10,65 +9,45 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistStamped
 from rcl_interfaces.msg import ParameterType
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.lifecycle import TransitionCallbackReturn
-from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from forte_driver.sim.sim_node import LEFT_JOINT, RIGHT_JOINT, SimNode
 from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileFrames
+from forte_ros.qos import COMMANDS, reliable
+from forte_ros.testing import SpinningGraph, wait_until
 
 
 class Harness:
     """Sim node + a listener/commander node, spun by one executor in a thread."""
 
     def __init__(self, **parameters) -> None:
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
+        self.ros = SpinningGraph('sim_peer')
         overrides = [Parameter(name, value=value) for name, value in parameters.items()]
-        self.node = SimNode(context=self.context, parameter_overrides=overrides)
-        self.peer = Node('sim_peer', context=self.context)
-        reliable = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-        self.frames: list[tuple[float, TactileFrames]] = []
-        self.joints: list[JointState] = []
-        self.truth: list[SimGroundTruth] = []
-        self.clock: list[Clock] = []
-        self.diagnostics: list[DiagnosticArray] = []
-        self.peer.create_subscription(
-            TactileFrames, 'tactile/frames',
-            lambda message: self.frames.append((time.monotonic(), message)), reliable)
-        self.peer.create_subscription(JointState, 'joint_states', self.joints.append, reliable)
-        self.peer.create_subscription(SimGroundTruth, 'sim/ground_truth', self.truth.append,
-                                      reliable)
-        self.peer.create_subscription(Clock, '/clock', self.clock.append, reliable)
-        self.peer.create_subscription(DiagnosticArray, '/diagnostics', self.diagnostics.append,
-                                      reliable)
-        self.servo = self.peer.create_publisher(ServoCommand, 'gripper/command', 10)
-        self.arm = self.peer.create_publisher(TwistStamped, 'arm/cmd_vel', 10)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.executor.add_node(self.peer)
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
+        self.node = self.ros.add(SimNode(context=self.ros.context, parameter_overrides=overrides))
+        self.peer = self.ros.node
+        # a deeper reliable queue than the contract's: the test must see every message
+        deep = reliable(1000)
+        self.frames: list[tuple[float, TactileFrames]] = self.ros.collect(
+            TactileFrames, 'tactile/frames', deep, arrival_times=True)
+        self.joints: list[JointState] = self.ros.collect(JointState, 'joint_states', deep)
+        self.truth: list[SimGroundTruth] = self.ros.collect(SimGroundTruth, 'sim/ground_truth',
+                                                            deep)
+        self.clock: list[Clock] = self.ros.collect(Clock, '/clock', deep)
+        self.diagnostics: list[DiagnosticArray] = self.ros.collect(DiagnosticArray,
+                                                                   '/diagnostics', deep)
+        self.servo = self.peer.create_publisher(ServoCommand, 'gripper/command', COMMANDS)
+        self.arm = self.peer.create_publisher(TwistStamped, 'arm/cmd_vel', COMMANDS)
+        self.ros.start()
 
     def wait(self, condition, timeout: float = 30.0) -> bool:
         """Poll ``condition`` until true; generous timeout for loaded CI machines."""
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if condition():
-                return True
-            time.sleep(0.02)
-        return condition()
+        return bool(wait_until(condition, timeout, period=0.02))
 
     def close(self) -> None:
-        self.executor.shutdown()
-        self.thread.join(timeout=5)
-        self.node.destroy_node()
-        self.peer.destroy_node()
-        rclpy.try_shutdown(context=self.context)
+        self.ros.close()
 
 
 @pytest.fixture
