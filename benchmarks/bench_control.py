@@ -79,7 +79,8 @@ def bench_step(n: int = 20000) -> None:
 
 # ------------------------------------------------------------------ 2. closed loop
 def bench_closed_loop() -> None:
-    from forte_bringup.closed_loop import default_force_model, run_trial
+    from forte_bringup.closed_loop import run_trial
+    from forte_bringup.sim_force_model import default_force_model
     from forte_driver.sim import make_scene
     from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
 
@@ -126,20 +127,18 @@ def bench_closed_loop() -> None:
 RELAY_SCRIPT = r'''
 import rclpy, sys
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy
 from forte_msgs.msg import TactileState, ServoCommand
+from forte_ros.qos import COMMANDS, TACTILE_STATE
 rclpy.init()
 node = Node('relay')
-q50 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.RELIABLE)
-q10 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
-pub = node.create_publisher(ServoCommand, 'gripper/command', q10)
+pub = node.create_publisher(ServoCommand, 'gripper/command', COMMANDS)
 def on_state(msg):
     if msg.slip:
         out = ServoCommand()
         out.header.stamp = node.get_clock().now().to_msg()
         out.position = 0.1
         pub.publish(out)
-node.create_subscription(TactileState, 'tactile/state', on_state, q50)
+node.create_subscription(TactileState, 'tactile/state', on_state, TACTILE_STATE)
 print('ready', flush=True)
 try:
     rclpy.spin(node)
@@ -156,21 +155,19 @@ class LatencyWorld:
     def __init__(self, rclpy, executor_type):
         from geometry_msgs.msg import TwistStamped
         from rclpy.node import Node
-        from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
 
         from forte_msgs.msg import ServoCommand, TactileState
+        from forte_ros.qos import COMMANDS, TACTILE_STATE
 
-        q50 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50,
-                         reliability=ReliabilityPolicy.RELIABLE)
-        q10 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                         reliability=ReliabilityPolicy.RELIABLE)
         self.TactileState = TactileState
         self.JointState = JointState
         self.publisher_node = Node('bench_perception')
         self.subscriber_node = Node('bench_gripper')
-        self.tactile_pub = self.publisher_node.create_publisher(TactileState, 'tactile/state', q50)
-        self.joint_pub = self.publisher_node.create_publisher(JointState, 'joint_states', q10)
+        self.tactile_pub = self.publisher_node.create_publisher(TactileState, 'tactile/state',
+                                                                TACTILE_STATE)
+        self.joint_pub = self.publisher_node.create_publisher(JointState, 'joint_states',
+                                                              COMMANDS)
         self.lock = threading.Lock()
         self.theta = 0.7
         self.sent_slip_at = None
@@ -178,9 +175,9 @@ class LatencyWorld:
         self.commands = 0
         self.slip_next = False
         self.subscriber_node.create_subscription(ServoCommand, 'gripper/command',
-                                                 self.on_command, q10)
+                                                 self.on_command, COMMANDS)
         self.subscriber_node.create_subscription(TwistStamped, 'arm/cmd_vel',
-                                                 lambda msg: None, q10)
+                                                 lambda msg: None, COMMANDS)
         self.publisher_node.create_timer(0.01, self.tick)
         self.executor = executor_type()
         self.executor.add_node(self.publisher_node)
@@ -227,6 +224,15 @@ class LatencyWorld:
             with self.lock:
                 self.slip_next = True
 
+    def measure(self, events: int) -> list[float]:
+        """Slip -> command latencies [s] of ``events`` slips, one every 50 ms, after 1 s."""
+        time.sleep(1.0)
+        with self.lock:
+            self.latencies.clear()
+        self.inject(events, 0.05)
+        time.sleep(0.5)
+        return list(self.latencies)
+
     def close(self) -> None:
         self.executor.shutdown(timeout_sec=2.0)
         self.publisher_node.destroy_node()
@@ -240,74 +246,100 @@ def _wait(condition, timeout):
     return condition()
 
 
-def bench_latency(events: int = 60) -> None:
-    import rclpy
+#: grasp_controller_node parameters of the end-to-end latency run: a quick grasp into LIFTING,
+#: a tightening for every slip message.
+LATENCY_CONTROLLER_PARAMETERS = {
+    'closing_speed': 1.0, 'loading_speed': 0.5, 'lift_speed': 0.002, 'lift_distance': 0.05,
+    'slip_increment': 0.004, 'slip_refractory': 0.0, 'max_tightening': 0.6,
+    'perception_timeout': 1.0, 'joint_state_timeout': 1.0}
+
+
+def _stop(process: subprocess.Popen) -> None:
+    """Terminate ``process``; kill it if it has not exited 10 s later."""
+    process.terminate()
+    try:
+        process.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        process.kill()
+
+
+def _start_controller(env: dict) -> subprocess.Popen:
+    """grasp_controller_node in its own process (:data:`LATENCY_CONTROLLER_PARAMETERS`)."""
+    args = ['--ros-args']
+    for name, value in LATENCY_CONTROLLER_PARAMETERS.items():
+        args += ['-p', f'{name}:={value}']
+    return subprocess.Popen(
+        [sys.executable, '-m', 'forte_control.grasp_controller_node', *args], env=env,
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def _grasp_client():
+    """A Grasp action client in a node of its own, spun in a thread: (client, executor)."""
     from rclpy.action import ActionClient
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
 
     from forte_msgs.action import Grasp
 
-    rclpy.init()
-    params = {'closing_speed': 1.0, 'loading_speed': 0.5, 'lift_speed': 0.002,
-              'lift_distance': 0.05, 'slip_increment': 0.004, 'slip_refractory': 0.0,
-              'max_tightening': 0.6, 'perception_timeout': 1.0, 'joint_state_timeout': 1.0}
-    args = ['--ros-args']
-    for name, value in params.items():
-        args += ['-p', f'{name}:={value}']
-    env = dict(os.environ)
-    controller = subprocess.Popen(
-        [sys.executable, '-m', 'forte_control.grasp_controller_node', *args], env=env,
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    world = LatencyWorld(rclpy, SingleThreadedExecutor)
     client_node = Node('bench_client')
     client = ActionClient(client_node, Grasp, 'grasp')
     client_executor = SingleThreadedExecutor()
     client_executor.add_node(client_node)
     threading.Thread(target=client_executor.spin, daemon=True).start()
-    try:
-        if not client.wait_for_server(timeout_sec=20.0):
-            print('[latency] controller did not come up; skipped')
-            return
-        time.sleep(1.0)
-        goal_future = client.send_goal_async(Grasp.Goal())
-        _wait(goal_future.done, 10.0)
-        handle = goal_future.result()
-        # wait for LIFTING: the servo stops changing once loaded
-        _wait(lambda: world.commands > 5, 10.0)
-        time.sleep(1.0)
-        with world.lock:
-            world.latencies.clear()
-        world.inject(events, 0.05)
-        time.sleep(0.5)
-        node_latencies = list(world.latencies)
-        if handle is not None and handle.accepted:
-            cancel = handle.cancel_goal_async()
-            _wait(cancel.done, 5.0)
-    finally:
-        controller.terminate()
-        try:
-            controller.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            controller.kill()
-    # baseline: a relay node in its own process
+    return client, client_executor
+
+
+def _controller_latencies(world: LatencyWorld, client, events: int) -> list[float] | None:
+    """Slip -> tightening latencies [s] through the controller, its grasp in LIFTING.
+
+    None if the controller's action server did not come up.
+    """
+    from forte_msgs.action import Grasp
+
+    if not client.wait_for_server(timeout_sec=20.0):
+        return None
+    time.sleep(1.0)
+    goal_future = client.send_goal_async(Grasp.Goal())
+    _wait(goal_future.done, 10.0)
+    handle = goal_future.result()
+    # wait for LIFTING: the servo stops changing once loaded
+    _wait(lambda: world.commands > 5, 10.0)
+    latencies = world.measure(events)
+    if handle is not None and handle.accepted:
+        cancel = handle.cancel_goal_async()
+        _wait(cancel.done, 5.0)
+    return latencies
+
+
+def _relay_latencies(world: LatencyWorld, env: dict, events: int) -> list[float]:
+    """The baseline: slip -> command latencies [s] through a relay node in its own process."""
     relay = subprocess.Popen([sys.executable, '-c', RELAY_SCRIPT], env=env,
                              stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     try:
         relay.stdout.readline()
         _wait(lambda: world.tactile_pub.get_subscription_count() > 0, 10.0)
-        time.sleep(1.0)
-        with world.lock:
-            world.latencies.clear()
-        world.inject(events, 0.05)
-        time.sleep(0.5)
-        relay_latencies = list(world.latencies)
+        return world.measure(events)
     finally:
-        relay.terminate()
-        try:
-            relay.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            relay.kill()
+        _stop(relay)
+
+
+def bench_latency(events: int = 60) -> None:
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    rclpy.init()
+    env = dict(os.environ)
+    controller = _start_controller(env)
+    world = LatencyWorld(rclpy, SingleThreadedExecutor)
+    client, client_executor = _grasp_client()
+    try:
+        node_latencies = _controller_latencies(world, client, events)
+    finally:
+        _stop(controller)
+    if node_latencies is None:
+        print('[latency] controller did not come up; skipped')
+        return
+    relay_latencies = _relay_latencies(world, env, events)
     world.close()
     client_executor.shutdown(timeout_sec=2.0)
     rclpy.try_shutdown()

@@ -69,16 +69,18 @@ class Probe:
         import rclpy
         from rclpy.action import ActionClient
         from rclpy.executors import SingleThreadedExecutor
-        from rclpy.qos import QoSProfile, ReliabilityPolicy
         from std_srvs.srv import Trigger
 
         from forte_msgs.action import Grasp
         from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileState
+        from forte_ros.qos import reliable as reliable_profile
 
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
         self.node = rclpy.create_node('forte_bench_probe', context=self.context)
-        reliable = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+        # deeper than the contract's queues: the probe must not lose a latency sample while
+        # this process is busy (burners beside the graph)
+        reliable = reliable_profile(100)
         self.latency: dict[str, list[float]] = {'echo': [], 'perception': [], 'command': []}
         self.truth = None
         self.tared = 0
@@ -335,7 +337,7 @@ def main(argv: list[str] | None = None) -> int:
     domain = isolate_ros_network()
     print(f'[bench_graph] ROS_DOMAIN_ID={domain}, discovery on localhost only; '
           f'{os.cpu_count()} CPUs', flush=True)
-    from forte_bringup.closed_loop import default_force_model
+    from forte_bringup.sim_force_model import default_force_model
 
     with tempfile.TemporaryDirectory(prefix='forte_bench_graph_') as tmp:
         folder = Path(tmp)

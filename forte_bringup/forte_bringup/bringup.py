@@ -43,6 +43,7 @@ from forte_bringup.graph import (
     TRANSITION_RETRY_DELAY,
     GraphSpec,
     NodeSpec,
+    argument_settings,
     parameter_text,
     params_file,
 )
@@ -111,21 +112,14 @@ def node_command(
     """
     command = [executable or find_executable(spec.package, spec.executable), '--ros-args',
                '-r', f'__node:={spec.name}', '--params-file', str(params)]
-    for source, target in spec.remappings:
+    try:
+        remappings, parameters = argument_settings(spec, arguments, graph)
+    except ValueError as error:
+        raise BringupError(str(error)) from error
+    for source, target in remappings:
         command += ['-r', f'{source}:={target}']
-    for source, argument in spec.argument_remaps:
-        target = arguments.get(argument, '')
-        if target and target != source:
-            command += ['-r', f'{source}:={target}']
-    for parameter, argument in spec.argument_parameters:
-        value = arguments.get(argument, '')
-        if value != '':
-            if graph is not None:
-                try:
-                    value = parameter_text(graph.argument(argument).typed(value))
-                except ValueError as error:
-                    raise BringupError(f'argument {argument}:={value}: {error}') from error
-            command += ['-p', f'{parameter}:={value}']
+    for parameter, value in parameters.items():  # untyped without a graph: the text as given
+        command += ['-p', f'{parameter}:={value if graph is None else parameter_text(value)}']
     for parameter, value in spec.fixed_parameters:
         command += ['-p', f'{parameter}:={parameter_text(value)}']
     return command

@@ -23,22 +23,18 @@ One trial:
    the last commands so the ground truth can show what happened to the object (e.g. a late
    drop). ``max_duration`` bounds a trial in any case.
 
-The force model (needed by FORTE and NO_SLIP) is trained once from the simulated calibration
-rig (:func:`default_force_model`) and cached on disk, keyed by a hash of the simulator's and
-perception's source and the training settings, so a change of either retrains it.
+The force model (needed by FORTE and NO_SLIP) is the simulated rig's, trained once and cached
+(:func:`forte_bringup.sim_force_model.default_force_model`, also importable from here).
 """
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-import tempfile
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
+from forte_bringup.sim_force_model import default_force_model, train_force_model
 from forte_control.state_machine import (
     ACTIVE_STATES,
     ControlInputs,
@@ -58,20 +54,6 @@ __all__ = ['OBJECT_STATE_NAMES', 'TrialResult', 'default_force_model', 'run_tria
 #: SimGroundTruth object_state constant -> name.
 OBJECT_STATE_NAMES = {0: 'NONE', 1: 'RESTING', 2: 'HELD', 3: 'DROPPED', 4: 'BROKEN',
                       5: 'CRUSHED'}
-
-#: Training settings of the cached force model (part of the cache key).
-FORCE_TRAINING = {
-    'trials_per_indentor': 8,   # 6 indentors -> 48 trials
-    'quiet_seconds': 1.0,       # tare period at the start of each trial
-    'close_seconds': 0.5,       # closing ramp to a random angle
-    'hold_seconds': 4.0,        # hold at the angle (relaxation)
-    'stride': 40,               # feature subsampling for training [samples]
-    'seed': 12345,
-    'C': 10.0,
-    'epsilon': 0.02,
-}
-
-_MODEL_CACHE: dict[str, object] = {}
 
 
 @dataclass
@@ -169,129 +151,14 @@ class TrialResult:
         return out
 
 
-# ------------------------------------------------------------------------------ force model
-def _source_hash() -> str:
-    """Hash of the simulator and perception sources and the training settings."""
-    import forte_driver.sim as sim
-    import forte_perception
-
-    digest = hashlib.sha256(repr(sorted(FORCE_TRAINING.items())).encode())
-    for package in (Path(sim.__file__).parent, Path(forte_perception.__file__).parent):
-        for path in sorted(package.glob('*.py')):
-            digest.update(path.name.encode())
-            digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
-
-
-def _cache_dir() -> Path:
-    folder = os.environ.get('FORTE_CACHE_DIR')
-    path = Path(folder) if folder else Path(tempfile.gettempdir()) / 'forte-cache'
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
-def calibration_features(settings: dict | None = None) -> tuple[np.ndarray, np.ndarray,
-                                                                np.ndarray]:
-    """Simulated calibration rig -> training features, as the contract's trainer does.
-
-    Per trial (every indentor x ``trials_per_indentor``): quiet period, closing ramp to an
-    angle drawn uniformly between fully closed and just touching, hold. Each trial is tared
-    by the mean of its quiet raw samples, median-filtered (11, causal, streaming) and its 24
-    force features computed at full rate, then subsampled by ``stride``.
-
-    Returns
-    -------
-    features : ndarray, shape (m, 24)
-    force : ndarray, shape (m,)
-        Load-cell force [N].
-    trial : ndarray, shape (m,)
-        Trial id.
-    """
-    from forte_driver.sim import INDENTORS, SAMPLE_RATE, make_scene
-    from forte_perception.force import force_features
-    from forte_perception.median import RunningMedian
-
-    s = dict(FORCE_TRAINING, **(settings or {}))
-    rng = np.random.default_rng(s['seed'])
-    quiet = int(s['quiet_seconds'] * SAMPLE_RATE)
-    close = int(s['close_seconds'] * SAMPLE_RATE)
-    hold = int(s['hold_seconds'] * SAMPLE_RATE)
-    chunk = 400
-    features, force, trials = [], [], []
-    trial_id = 0
-    for name in INDENTORS:
-        for _ in range(s['trials_per_indentor']):
-            scene = make_scene('calibration', indentor=name, seed=s['seed'] + trial_id,
-                               trial=trial_id)
-            start = scene.initial_angle
-            target = float(rng.uniform(0.0, scene.theta_zero_force))
-            frames, loads = [], []
-            done = 0
-            total = quiet + close + hold
-            while done < total:
-                n = min(chunk, total - done)
-                if done < quiet:
-                    command = start
-                else:
-                    command = start + (target - start) * min((done - quiet + n) / close, 1.0)
-                block, truth = scene.step(n, command, 0.0)
-                frames.append(block)
-                loads.append(truth.load_cell_force)
-                done += n
-            raw = np.concatenate(frames)
-            load = np.concatenate(loads)
-            baseline = raw[:quiet].mean(axis=0)
-            median = RunningMedian(11, 6)
-            filtered = median.update(raw) - baseline
-            feats = force_features(filtered, fs=SAMPLE_RATE)
-            pick = np.arange(quiet // 2, total, s['stride'])
-            features.append(feats[pick])
-            force.append(load[pick])
-            trials.append(np.full(pick.size, trial_id))
-            trial_id += 1
-    return np.concatenate(features), np.concatenate(force), np.concatenate(trials)
-
-
-def train_force_model(settings: dict | None = None):
-    """Train a :class:`forte_perception.force.ForceModel` on the simulated calibration rig."""
-    from forte_perception.force import ForceModel
-
-    s = dict(FORCE_TRAINING, **(settings or {}))
-    features, force, _ = calibration_features(s)
-    return ForceModel.fit(features, force, C=s['C'], epsilon=s['epsilon'],
-                          force_range=(0.0, 10.0),
-                          metadata={'source': 'forte_bringup.closed_loop simulated rig',
-                                    'settings': {k: v for k, v in s.items()}})
-
-
-def default_force_model(refresh: bool = False):
-    """The cached force model for closed-loop trials (trained on first use, ~10 s).
-
-    Cached in memory and in ``$FORTE_CACHE_DIR`` (default ``<tmp>/forte-cache``) under a key
-    that changes with the simulator / perception sources and :data:`FORCE_TRAINING`.
-    """
-    from forte_perception.force import ForceModel
-
-    key = _source_hash()
-    if not refresh and key in _MODEL_CACHE:
-        return _MODEL_CACHE[key]
-    path = _cache_dir() / f'force_model_{key}.npz'
-    model = None
-    if path.exists() and not refresh:
-        try:
-            model = ForceModel.load(path)
-        except (ValueError, OSError, KeyError):
-            model = None  # damaged cache: retrain
-    if model is None:
-        model = train_force_model()
-        partial = path.with_suffix(f'.{os.getpid()}.tmp')
-        model.save(partial)
-        os.replace(partial, path)  # atomic: concurrent workers never read half a file
-    _MODEL_CACHE[key] = model
-    return model
-
-
 # ------------------------------------------------------------------------------ the trial
+#: Per-update traces kept with ``record_traces`` (see :func:`run_trial`).
+TRACE_NAMES = ('time', 'filtered', 'force_estimate', 'force_true', 'psd_max_db',
+               'finger_variance', 'slip', 'contact', 'servo_command', 'joint_position',
+               'arm_velocity', 'lift_command', 'lift_true', 'object_height', 'object_state',
+               'state')
+
+
 def _controller(value) -> Controller:
     if isinstance(value, Controller):
         return value
@@ -308,6 +175,213 @@ def _controller(value) -> Controller:
 def _state_name(value) -> str:
     """SimGroundTruth object_state constant -> name."""
     return OBJECT_STATE_NAMES.get(int(value), str(int(value)))
+
+
+@dataclass
+class _Commands:
+    """What the scene applies to the next chunk: the state machine's latest commands."""
+
+    servo: float
+    max_current: float = 0.0
+    profile_velocity: float = 0.0
+    arm_velocity: float = 0.0
+
+    def follow(self, outputs) -> None:
+        """Take the servo command (when the update has one) and the arm velocity of a step."""
+        if outputs.servo is not None:
+            self.servo = outputs.servo.position
+            self.max_current = outputs.servo.max_current
+            self.profile_velocity = outputs.servo.profile_velocity
+        self.arm_velocity = outputs.arm_velocity
+
+    def stop(self, outputs) -> None:
+        """After a cancel: its servo position (if any), the same limits, the arm stopped."""
+        if outputs.servo is not None:
+            self.servo = outputs.servo.position
+        self.arm_velocity = 0.0
+
+
+@dataclass
+class _TrialLog:
+    """What a trial saw and did, times in seconds since the goal (see :class:`TrialResult`)."""
+
+    onset_times: list[float] = field(default_factory=list)
+    onset_types: list[int] = field(default_factory=list)
+    flag_times: list[float] = field(default_factory=list)
+    reaction_times: list[float] = field(default_factory=list)
+    lift_start: float = math.nan
+    max_true_force: float = 0.0
+    max_estimated: float = -math.inf
+    finished_at: float = math.nan
+    state_at_outcome: str = ''
+    traces: dict[str, list] | None = None
+
+    def sense(self, out, truth, t: float, t0: float) -> None:
+        """The chunk's true slip onsets, slip flag and largest true and estimated forces."""
+        from forte_driver.sim import SAMPLE_PERIOD
+
+        first_time = truth.first_index * SAMPLE_PERIOD - t0
+        for index, kind_of_onset in zip(truth.slip_onset_indices, truth.slip_onset_types):
+            self.onset_times.append(first_time + index * SAMPLE_PERIOD)
+            self.onset_types.append(int(kind_of_onset))
+        if out.slip:
+            self.flag_times.append(t)
+        self.max_true_force = max(self.max_true_force, float(truth.finger_force.max()))
+        if out.force_valid and math.isfinite(out.force):
+            self.max_estimated = max(self.max_estimated, float(out.force))
+
+    def finish(self, t: float, truth) -> None:
+        """The machine reached its outcome at ``t``: note the true object state then."""
+        self.finished_at = t
+        self.state_at_outcome = _state_name(truth.object_state[-1])
+
+    def trace(self, t: float, out, truth, commands: _Commands, outputs, state: int) -> None:
+        """Append one update to every trace."""
+        traces = self.traces
+        traces['time'].append(t)
+        traces['filtered'].append(np.asarray(out.filtered, float).copy())
+        traces['force_estimate'].append(float(out.force) if out.force_valid else math.nan)
+        traces['force_true'].append(truth.finger_force[-1].copy())
+        traces['psd_max_db'].append(np.asarray(out.psd_max_db, float).copy())
+        traces['finger_variance'].append(np.asarray(out.finger_variance, float).copy())
+        traces['slip'].append(bool(out.slip))
+        traces['contact'].append(np.asarray(out.contact, bool).copy())
+        traces['servo_command'].append(commands.servo)
+        traces['joint_position'].append(float(truth.joint_position[-1]))
+        traces['arm_velocity'].append(commands.arm_velocity)
+        traces['lift_command'].append(outputs.lift_height)
+        traces['lift_true'].append(float(truth.lift_height[-1]))
+        traces['object_height'].append(float(truth.object_height[-1]))
+        traces['object_state'].append(int(truth.object_state[-1]))
+        traces['state'].append(int(state))
+
+    def during_lift(self, times: list[float]) -> list[float]:
+        """The ``times`` from the start of LIFTING on (none if it never began)."""
+        if math.isnan(self.lift_start):
+            return []
+        return [x for x in times if x >= self.lift_start]
+
+
+class _ClosedLoop:
+    """One trial's scene, pipeline and state machine, stepped chunk by chunk."""
+
+    def __init__(self, scene, pipeline, machine: GraspStateMachine, chunk_samples: int,
+                 record_traces: bool) -> None:
+        self.scene = scene
+        self.pipeline = pipeline
+        self.machine = machine
+        self.chunk_samples = chunk_samples
+        self.commands = _Commands(servo=scene.initial_angle)
+        self.log = _TrialLog(traces={key: [] for key in TRACE_NAMES} if record_traces
+                             else None)
+        self.t0 = math.nan
+
+    def inputs(self, out, truth, stamp: float) -> ControlInputs:
+        """The state machine's inputs: perception output and what the servos report."""
+        perception = perception_input(out, stamp)
+        # what the servos report: angle and current (never the scene's ground truth)
+        joint = JointInput(stamp=stamp, theta=float(truth.joint_position[-1]),
+                           effort=float(np.mean(self.scene.joint_effort)))
+        return ControlInputs(perception=perception, joint=joint)
+
+    def warm_up(self, seconds: float) -> tuple:
+        """Gripper still for ``seconds``: the pipeline tares and fills its windows.
+
+        Returns the last chunk's perception output and ground truth; sets :attr:`t0`, the
+        time of the last warm-up sample.
+        """
+        from forte_driver.sim import SAMPLE_PERIOD
+
+        chunks = int(math.ceil(seconds / (self.chunk_samples * SAMPLE_PERIOD)))
+        out = truth = None
+        for _ in range(chunks):
+            frames, truth = self.scene.step(self.chunk_samples, self.commands.servo, 0.0)
+            out = self.pipeline.process(frames)
+        self.t0 = self.scene.time - SAMPLE_PERIOD
+        return out, truth
+
+    def start(self, goal: GraspGoal, out, truth):
+        """Start the goal at :attr:`t0` and take the machine's first step; its outputs."""
+        ok, reason = self.machine.start(goal, self.t0, self.inputs(out, truth, self.t0))
+        if not ok:
+            raise RuntimeError(f'the state machine refused the goal: {reason}')
+        outputs = self.machine.step(self.inputs(out, truth, self.t0), self.t0)
+        self.commands.follow(outputs)
+        return outputs
+
+    def run(self, outputs, max_duration: float, settle: float) -> tuple:
+        """Chunks until ``settle`` s after the outcome (cancelling at ``max_duration``).
+
+        Returns the machine's last outputs and the last chunk's ground truth.
+        """
+        from forte_driver.sim import SAMPLE_PERIOD
+
+        machine, commands, log = self.machine, self.commands, self.log
+        end_time = max_duration
+        while True:
+            frames, truth = self.scene.step(
+                self.chunk_samples, commands.servo, commands.arm_velocity,
+                max_current=commands.max_current, profile_velocity=commands.profile_velocity)
+            out = self.pipeline.process(frames)
+            stamp = self.scene.time - SAMPLE_PERIOD
+            t = stamp - self.t0
+            log.sense(out, truth, t, self.t0)
+            if machine.state in ACTIVE_STATES:
+                outputs = self._step_machine(out, truth, stamp, t)
+                if outputs.state not in ACTIVE_STATES:
+                    end_time = min(max_duration + settle, t + settle)
+            if log.traces is not None:
+                log.trace(t, out, truth, commands, outputs, machine.state)
+            if t >= end_time:
+                return outputs, truth
+            if machine.state in ACTIVE_STATES and t >= max_duration:
+                outputs = machine.cancel(stamp)
+                commands.stop(outputs)
+                log.finish(t, truth)
+                end_time = t + settle
+
+    def _step_machine(self, out, truth, stamp: float, t: float):
+        """One state machine update on the chunk; its commands apply to the next chunk."""
+        outputs = self.machine.step(self.inputs(out, truth, stamp), stamp)
+        self.commands.follow(outputs)
+        if outputs.slip_reacted:
+            self.log.reaction_times.append(t)
+        if outputs.state == GraspState.LIFTING and math.isnan(self.log.lift_start):
+            self.log.lift_start = t
+        if outputs.state not in ACTIVE_STATES:
+            self.log.finish(t, truth)
+        return outputs
+
+
+def _trial_result(loop: _ClosedLoop, outputs, truth, identity: dict,
+                  success_height: float, wall_start: float) -> TrialResult:
+    """The :class:`TrialResult` of a finished loop (``identity``: name, controller, seeds)."""
+    log = loop.log
+    final = truth.latest()
+    object_state = _state_name(final['object_state'])
+    outcome = Outcome(int(outputs.outcome)).name
+    success = (outcome == 'LIFTED' and object_state == 'HELD'
+               and final['object_height'] >= success_height)
+    traces = log.traces
+    if traces is not None:
+        traces = {key: np.asarray(value) for key, value in traces.items()}
+    return TrialResult(
+        **identity, outcome=outcome, object_state=object_state,
+        success=bool(success), message=outputs.message, fault_flags=int(outputs.fault_flags),
+        final_height=float(final['object_height']), max_true_force=log.max_true_force,
+        max_estimated_force=(log.max_estimated if math.isfinite(log.max_estimated)
+                             else math.nan),
+        slip_events=int(outputs.slip_events), tightening=float(outputs.tightening),
+        lift_height=float(outputs.lift_height), slip_onset_times=log.onset_times,
+        slip_onset_types=log.onset_types, slip_flag_times=log.flag_times,
+        slip_reaction_times=log.reaction_times,
+        slip_true=bool(log.during_lift(log.onset_times)),
+        slip_predicted=bool(log.during_lift(log.flag_times)),
+        lift_start_time=log.lift_start, object_state_at_outcome=log.state_at_outcome,
+        duration=log.finished_at,
+        simulated_seconds=float(loop.scene.time),
+        wall_seconds=time.perf_counter() - wall_start,
+        traces=traces)
 
 
 def run_trial(object_name: str, controller, seed: int = 0,
@@ -365,7 +439,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
     -------
     TrialResult
     """
-    from forte_driver.sim import SAMPLE_PERIOD, make_scene
+    from forte_driver.sim import make_scene
     from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
 
     wall_start = time.perf_counter()
@@ -380,131 +454,11 @@ def run_trial(object_name: str, controller, seed: int = 0,
     pipeline = PerceptionPipeline(config, model)
     scene = make_scene('grasp', object_name=object_name, seed=seed, trial=trial)
     machine = GraspStateMachine(params or ControllerParams(), lift_check)
-    dt = chunk_samples * SAMPLE_PERIOD
-
-    servo = scene.initial_angle
-    max_current = 0.0
-    profile_velocity = 0.0
-    arm_velocity = 0.0
-    # -- warm-up: gripper still, pipeline tares and fills its windows
-    warm_chunks = int(math.ceil(warmup / dt))
-    out = None
-    truth = None
-    for _ in range(warm_chunks):
-        frames, truth = scene.step(chunk_samples, servo, 0.0)
-        out = pipeline.process(frames)
-    t0 = scene.time - SAMPLE_PERIOD  # time of the last warm-up sample
-
-    def inputs_from(out, truth, stamp):
-        perception = perception_input(out, stamp)
-        # what the servos report: angle and current (never the scene's ground truth)
-        joint = JointInput(stamp=stamp, theta=float(truth.joint_position[-1]),
-                           effort=float(np.mean(scene.joint_effort)))
-        return ControlInputs(perception=perception, joint=joint)
-
+    loop = _ClosedLoop(scene, pipeline, machine, chunk_samples, record_traces)
+    out, truth = loop.warm_up(warmup)
     goal = GraspGoal(**{**(goal.__dict__ if goal is not None else {}), 'controller': kind})
-    ok, reason = machine.start(goal, t0, inputs_from(out, truth, t0))
-    if not ok:
-        raise RuntimeError(f'the state machine refused the goal: {reason}')
-
-    traces = {key: [] for key in (
-        'time', 'filtered', 'force_estimate', 'force_true', 'psd_max_db', 'finger_variance',
-        'slip', 'contact', 'servo_command', 'joint_position', 'arm_velocity', 'lift_command',
-        'lift_true', 'object_height', 'object_state', 'state')} if record_traces else None
-    onset_times: list[float] = []
-    onset_types: list[int] = []
-    flag_times: list[float] = []
-    reaction_times: list[float] = []
-    lift_start = math.nan
-    max_true_force = 0.0
-    max_estimated = -math.inf
-    finished_at = math.nan
-    state_at_outcome = ''
-    outputs = machine.step(inputs_from(out, truth, t0), t0)
-    if outputs.servo is not None:
-        servo = outputs.servo.position
-        max_current = outputs.servo.max_current
-        profile_velocity = outputs.servo.profile_velocity
-    arm_velocity = outputs.arm_velocity
-    end_time = max_duration
-    while True:
-        frames, truth = scene.step(chunk_samples, servo, arm_velocity,
-                                   max_current=max_current, profile_velocity=profile_velocity)
-        out = pipeline.process(frames)
-        stamp = scene.time - SAMPLE_PERIOD
-        t = stamp - t0
-        first_time = truth.first_index * SAMPLE_PERIOD - t0
-        for index, kind_of_onset in zip(truth.slip_onset_indices, truth.slip_onset_types):
-            onset_times.append(first_time + index * SAMPLE_PERIOD)
-            onset_types.append(int(kind_of_onset))
-        if out.slip:
-            flag_times.append(t)
-        max_true_force = max(max_true_force, float(truth.finger_force.max()))
-        if out.force_valid and math.isfinite(out.force):
-            max_estimated = max(max_estimated, float(out.force))
-        if machine.state in ACTIVE_STATES:
-            outputs = machine.step(inputs_from(out, truth, stamp), stamp)
-            if outputs.servo is not None:
-                servo = outputs.servo.position
-                max_current = outputs.servo.max_current
-                profile_velocity = outputs.servo.profile_velocity
-            arm_velocity = outputs.arm_velocity
-            if outputs.slip_reacted:
-                reaction_times.append(t)
-            if outputs.state == GraspState.LIFTING and math.isnan(lift_start):
-                lift_start = t
-            if outputs.state not in ACTIVE_STATES:
-                finished_at = t
-                state_at_outcome = _state_name(truth.object_state[-1])
-                end_time = min(max_duration + settle, t + settle)
-        if record_traces:
-            traces['time'].append(t)
-            traces['filtered'].append(np.asarray(out.filtered, float).copy())
-            traces['force_estimate'].append(float(out.force) if out.force_valid else math.nan)
-            traces['force_true'].append(truth.finger_force[-1].copy())
-            traces['psd_max_db'].append(np.asarray(out.psd_max_db, float).copy())
-            traces['finger_variance'].append(np.asarray(out.finger_variance, float).copy())
-            traces['slip'].append(bool(out.slip))
-            traces['contact'].append(np.asarray(out.contact, bool).copy())
-            traces['servo_command'].append(servo)
-            traces['joint_position'].append(float(truth.joint_position[-1]))
-            traces['arm_velocity'].append(arm_velocity)
-            traces['lift_command'].append(outputs.lift_height)
-            traces['lift_true'].append(float(truth.lift_height[-1]))
-            traces['object_height'].append(float(truth.object_height[-1]))
-            traces['object_state'].append(int(truth.object_state[-1]))
-            traces['state'].append(int(machine.state))
-        if t >= end_time:
-            break
-        if machine.state in ACTIVE_STATES and t >= max_duration:
-            outputs = machine.cancel(stamp)
-            servo = outputs.servo.position if outputs.servo is not None else servo
-            arm_velocity = 0.0
-            finished_at = t
-            state_at_outcome = _state_name(truth.object_state[-1])
-            end_time = t + settle
-
-    final = truth.latest()
-    object_state = _state_name(final['object_state'])
-    during_lift = (lambda times: [x for x in times if x >= lift_start]) \
-        if not math.isnan(lift_start) else (lambda times: [])
-    outcome = Outcome(int(outputs.outcome)).name
-    success = (outcome == 'LIFTED' and object_state == 'HELD'
-               and final['object_height'] >= success_height)
-    if traces is not None:
-        traces = {key: np.asarray(value) for key, value in traces.items()}
-    return TrialResult(
-        object_name=object_name, controller=kind.name, seed=int(seed), trial=int(trial),
-        outcome=outcome, object_state=object_state,
-        success=bool(success), message=outputs.message, fault_flags=int(outputs.fault_flags),
-        final_height=float(final['object_height']), max_true_force=max_true_force,
-        max_estimated_force=max_estimated if math.isfinite(max_estimated) else math.nan,
-        slip_events=int(outputs.slip_events), tightening=float(outputs.tightening),
-        lift_height=float(outputs.lift_height), slip_onset_times=onset_times,
-        slip_onset_types=onset_types, slip_flag_times=flag_times,
-        slip_reaction_times=reaction_times,
-        slip_true=bool(during_lift(onset_times)), slip_predicted=bool(during_lift(flag_times)),
-        lift_start_time=lift_start, object_state_at_outcome=state_at_outcome,
-        duration=finished_at,
-        simulated_seconds=float(scene.time), wall_seconds=time.perf_counter() - wall_start,
-        traces=traces)
+    outputs = loop.start(goal, out, truth)
+    outputs, truth = loop.run(outputs, max_duration, settle)
+    identity = {'object_name': object_name, 'controller': kind.name, 'seed': int(seed),
+                'trial': int(trial)}
+    return _trial_result(loop, outputs, truth, identity, success_height, wall_start)

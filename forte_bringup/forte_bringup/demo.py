@@ -29,6 +29,10 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from forte_bringup.bringup import Bringup
 
 #: The demo's objects: fragile (crushed by ON_OFF), slippery (dropped by NO_SLIP), heavy.
 DEFAULT_OBJECTS = ('raspberry', 'soda_can', 'glass_bottle')
@@ -48,7 +52,7 @@ def say(text: str) -> None:
 
 def prepare_force_model(output: Path) -> Path:
     """The simulated-rig force model for the perception node, saved next to the report."""
-    from forte_bringup.closed_loop import default_force_model
+    from forte_bringup.sim_force_model import default_force_model
 
     path = output / 'force_model.npz'
     say('force model: training on the simulated calibration rig (cached after the first run)')
@@ -63,13 +67,13 @@ class DemoClient:
         import rclpy
         from rclpy.action import ActionClient
         from rclpy.executors import SingleThreadedExecutor
-        from rclpy.qos import QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
         from std_srvs.srv import Trigger
 
         from forte_bringup.record import BagRecorder
         from forte_msgs.action import Grasp
         from forte_msgs.msg import SimGroundTruth, TactileState
+        from forte_ros.qos import COMMANDS, GROUND_TRUTH, TACTILE_STATE
 
         rclpy.init()
         self.recorder = BagRecorder(bag, node_name='forte_demo_recorder')
@@ -81,12 +85,12 @@ class DemoClient:
         self.max_true_force = 0.0
         self.tared_states = 0
         self.joint_states = 0
-        reliable = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
         self.node.create_subscription(SimGroundTruth, 'sim/ground_truth', self._on_truth,
-                                      reliable)
-        self.node.create_subscription(TactileState, 'tactile/state', self._on_state, reliable)
+                                      GROUND_TRUTH)
+        self.node.create_subscription(TactileState, 'tactile/state', self._on_state,
+                                      TACTILE_STATE)
         self.node.create_subscription(JointState, 'joint_states', self._on_joint_state,
-                                      reliable)
+                                      COMMANDS)
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.recorder.node)
         self.executor.add_node(self.node)
@@ -189,66 +193,71 @@ class DemoClient:
 OBJECT_STATES = {0: 'NONE', 1: 'RESTING', 2: 'HELD', 3: 'DROPPED', 4: 'BROKEN', 5: 'CRUSHED'}
 
 
-def run(objects: list[str], controllers: list[str], output: Path, settle: float,
-        timeout: float, real_time_factor: float) -> int:
-    """The whole demo; returns a process exit code."""
-    from forte_bringup.bringup import Bringup, BringupError
+def grasp_scene(bringup: Bringup, client: DemoClient, object_name: str, controller: str,
+                settle: float, timeout: float, progress: str) -> tuple[dict, int]:
+    """A fresh scene of ``object_name`` grasped with ``controller``, recorded ``settle`` s on.
+
+    ``progress`` (e.g. ``3/9 raspberry / ON_OFF``) heads the progress line. Returns the
+    outcome row (the Grasp result and the ground truth after the settle time) and the
+    receive time [ns] at which the grasp began.
+    """
+    seed = DEMO_SEEDS.get(object_name, 0)
+    bringup.new_scene(object=object_name, seed=seed)
+    client.reset_perception()
+    client.wait_ready()  # perception tared on the quiet start, joints known
+    first = time.time_ns()
+    say(f'{progress}: grasping')
+    result = client.grasp(controller, timeout)
+    time.sleep(settle)  # let the object settle (or fall) in the recording
+    truth = client.truth
+    result.update(
+        object=object_name, controller=controller, seed=seed,
+        object_state=OBJECT_STATES.get(truth.object_state, '?') if truth else '?',
+        object_height=truth.object_height if truth else float('nan'),
+        max_true_force=client.max_true_force,
+        true_slip_onsets=truth.slip_onsets if truth else 0)
+    return result, first
+
+
+def grasp_all(bringup: Bringup, client: DemoClient, objects: list[str], controllers: list[str],
+              settle: float, timeout: float, started: float, rows: list[dict],
+              windows: list[tuple[str, int, int]]) -> None:
+    """Every object with every controller; appends to ``rows`` and the bag ``windows``.
+
+    A grasp that fails (the graph or the goal) becomes a ``demo error`` row; the others go on.
+    """
+    from forte_bringup.bringup import BringupError
+
+    total = len(objects) * len(controllers)
+    for object_index, object_name in enumerate(objects):
+        for controller_index, controller in enumerate(controllers):
+            number = object_index * len(controllers) + controller_index + 1
+            label = f'{object_name} / {controller}'
+            try:
+                result, first = grasp_scene(bringup, client, object_name, controller,
+                                            settle, timeout, f'{number}/{total} {label}')
+                windows.append((label, first, time.time_ns()))
+                rows.append(result)
+                say(f'{number}/{total} {label}: {result["outcome"]}, object '
+                    f'{result["object_state"]}, lift {1000 * result["lift_height"]:.1f} mm, '
+                    f'{result["slip_events"]} slip reactions '
+                    f'({time.monotonic() - started:.0f} s elapsed)')
+            except (BringupError, RuntimeError) as error:
+                say(f'{number}/{total} {label}: FAILED: {error}')
+                rows.append({'object': object_name, 'controller': controller,
+                             'outcome': f'demo error: {error}'})
+
+
+def write_report(output: Path, bag: Path, model: Path, rows: list[dict],
+                 windows: list[tuple[str, int, int]], objects: list[str],
+                 controllers: list[str], started: float) -> Path:
+    """Figures from the bag, ``report.md`` and ``outcomes.json`` in ``output``; the report.
+
+    ``windows``: ``(label, first, last receive time [ns])`` of each grasp in the ``bag``;
+    ``model``: the force model perception used.
+    """
     from forte_bringup.report import outcome_table, plot_grasp, traces_from_bag
 
-    started = time.monotonic()
-    if output.exists():
-        shutil.rmtree(output)
-    output.mkdir(parents=True)
-    model = prepare_force_model(output)
-    bag = output / 'bag'
-    client = DemoClient(bag)
-    rows, windows = [], []
-    total = len(objects) * len(controllers)
-    say('starting sim_node, perception_node, grasp_controller_node at real-time factor '
-        f'{real_time_factor:g}')
-    bringup = Bringup('sim', {'object': objects[0], 'force_model': str(model)},
-                      extra_parameters={'sim': {'real_time_factor': real_time_factor}},
-                      log_dir=output / 'logs', echo=None)
-    try:
-        bringup.start(timeout=60.0)
-        for object_index, object_name in enumerate(objects):
-            for controller_index, controller in enumerate(controllers):
-                number = object_index * len(controllers) + controller_index + 1
-                label = f'{object_name} / {controller}'
-                seed = DEMO_SEEDS.get(object_name, 0)
-                try:
-                    bringup.new_scene(object=object_name, seed=seed)
-                    client.reset_perception()
-                    client.wait_ready()  # perception tared on the quiet start, joints known
-                    first = time.time_ns()
-                    say(f'{number}/{total} {label}: grasping')
-                    result = client.grasp(controller, timeout)
-                    time.sleep(settle)  # let the object settle (or fall) in the recording
-                    truth = client.truth
-                    result.update(
-                        object=object_name, controller=controller,
-                        seed=seed,
-                        object_state=OBJECT_STATES.get(truth.object_state, '?')
-                        if truth else '?',
-                        object_height=truth.object_height if truth else float('nan'),
-                        max_true_force=client.max_true_force,
-                        true_slip_onsets=truth.slip_onsets if truth else 0)
-                    windows.append((label, first, time.time_ns()))
-                    rows.append(result)
-                    say(f'{number}/{total} {label}: {result["outcome"]}, object '
-                        f'{result["object_state"]}, lift {1000 * result["lift_height"]:.1f} mm, '
-                        f'{result["slip_events"]} slip reactions '
-                        f'({time.monotonic() - started:.0f} s elapsed)')
-                except (BringupError, RuntimeError) as error:
-                    say(f'{number}/{total} {label}: FAILED: {error}')
-                    rows.append({'object': object_name, 'controller': controller,
-                                 'outcome': f'demo error: {error}'})
-    except BringupError as error:
-        say(f'the graph did not start: {error}')
-        rows.append({'object': '-', 'controller': '-', 'outcome': f'demo error: {error}'})
-    finally:
-        bringup.stop()
-        client.close()
     say(f'bag closed: {bag}; reading it back for the report')
     traces = traces_from_bag(bag, windows)
     figures = []
@@ -277,6 +286,40 @@ def run(objects: list[str], controllers: list[str], output: Path, settle: float,
               f'- node logs: `{output / "logs"}`', '']
     report.write_text('\n'.join(lines))
     (output / 'outcomes.json').write_text(json.dumps(rows, indent=1, default=float))
+    return report
+
+
+def run(objects: list[str], controllers: list[str], output: Path, settle: float,
+        timeout: float, real_time_factor: float) -> int:
+    """The whole demo; returns a process exit code."""
+    from forte_bringup.bringup import Bringup, BringupError
+    from forte_bringup.report import outcome_table
+
+    started = time.monotonic()
+    if output.exists():
+        shutil.rmtree(output)
+    output.mkdir(parents=True)
+    model = prepare_force_model(output)
+    bag = output / 'bag'
+    client = DemoClient(bag)
+    rows: list[dict] = []
+    windows: list[tuple[str, int, int]] = []
+    say('starting sim_node, perception_node, grasp_controller_node at real-time factor '
+        f'{real_time_factor:g}')
+    bringup = Bringup('sim', {'object': objects[0], 'force_model': str(model)},
+                      extra_parameters={'sim': {'real_time_factor': real_time_factor}},
+                      log_dir=output / 'logs', echo=None)
+    try:
+        bringup.start(timeout=60.0)
+        grasp_all(bringup, client, objects, controllers, settle, timeout, started, rows,
+                  windows)
+    except BringupError as error:
+        say(f'the graph did not start: {error}')
+        rows.append({'object': '-', 'controller': '-', 'outcome': f'demo error: {error}'})
+    finally:
+        bringup.stop()
+        client.close()
+    report = write_report(output, bag, model, rows, windows, objects, controllers, started)
     print('\n' + outcome_table(rows) + '\n', flush=True)
     say(f'report: {report}')
     say(f'figures: {output}/*.png; bag: {bag}; done in {time.monotonic() - started:.0f} s')

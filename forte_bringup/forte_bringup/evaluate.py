@@ -216,8 +216,8 @@ def _progress_printer(started: float) -> Callable[[int, int, TrialRecord], None]
     return show
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point (``python -m forte_bringup.evaluate``, ``forte_evaluate``)."""
+def _parser() -> argparse.ArgumentParser:
+    """The command line of :func:`main`."""
     parser = argparse.ArgumentParser(prog='forte_evaluate', description=__doc__.split('\n')[0])
     parser.add_argument('--quick', action='store_true', help='CI subset, under a minute')
     parser.add_argument('--trials', type=int, default=None, help='trials per object (10)')
@@ -229,76 +229,94 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--skip-grasp', action='store_true')
     parser.add_argument('--skip-force', action='store_true')
     parser.add_argument('--output', type=Path, default=Path('out/evaluation'))
-    args = parser.parse_args(argv)
+    return parser
 
+
+def grasp_evaluation(args: argparse.Namespace, trials: int, results: dict) -> list[str]:
+    """Run the grasp benchmark of the command line ``args``, print its tables.
+
+    Adds ``grasp``, ``truth``, ``slip_latency``, ``trials`` and the timing to ``results``;
+    returns the markdown section.
+    """
+    objects = benchmark_objects(args.quick)
+    if args.objects:
+        objects = [pair for pair in objects if pair[0] in args.objects] or [
+            (name, _category_of(name)) for name in args.objects]
+    tasks = make_tasks(objects, args.controllers, trials, args.seed)
+    print(f'[evaluate] grasp benchmark: {len(objects)} objects x {trials} trials x '
+          f'{len(args.controllers)} controllers = {len(tasks)} closed-loop trials on '
+          f'{args.jobs} process(es)', flush=True)
+    started = time.monotonic()
+    records = run_benchmark(tasks, args.jobs, _progress_printer(started))
+    elapsed = time.monotonic() - started
+    results['timings']['grasp_benchmark_s'] = elapsed
+    forte = [r for r in records if r.controller == 'FORTE']
+    stats = latency_stats([v for r in forte for v in r.latencies],
+                          sum(r.missed_onsets for r in forte))
+    results['grasp'] = summary_json(records)
+    results['truth'] = confusion_json(records)
+    results['slip_latency'] = stats
+    results['trials'] = [r.to_dict() for r in records]
+    table = result_table(records)
+    latency = latency_table(stats)
+    print('\nGrasp success and slip detection (rows "paper": the paper\'s Table)\n'
+          + table, flush=True)
+    print('\nSlip detection latency, true onset to first flag (FORTE trials)\n' + latency,
+          flush=True)
+    truth = confusion_table(records)
+    truth_at_outcome = confusion_table(records, at_outcome=True)
+    print('\nController outcome against the ground-truth object state at the end of the '
+          'trial (! = contradicts the truth on whether the object was carried)\n' + truth,
+          flush=True)
+    print('\nSame, ground truth at the moment of the outcome\n' + truth_at_outcome,
+          flush=True)
+    return ['## Grasp success and slip detection', '', table, '',
+            '## Slip detection latency (onset to flag)', '', latency, '',
+            '## Controller outcome against the ground truth', '',
+            'Ground truth at the end of the trial (1 s after the outcome); `!` marks '
+            'a contradiction on whether the object was carried (LIFTED vs RESTING '
+            'or DROPPED, DROPPED or NOT_CARRIED vs HELD).', '', truth, '',
+            'Ground truth at the moment of the outcome:', '', truth_at_outcome, '',
+            f'{len(tasks)} trials in {elapsed:.1f} s on {args.jobs} process(es).', '']
+
+
+def force_evaluation(args: argparse.Namespace, results: dict) -> list[str]:
+    """Cross-validate the force model on the simulated rig, print its table.
+
+    Adds ``force`` and the timing to ``results``; returns the markdown section.
+    """
+    per_indentor = 3 if args.quick else 40
+    hold = 4.0 if args.quick else 12.0
+    indentors = None
+    if args.quick:
+        from forte_driver.sim import INDENTORS
+        indentors = list(INDENTORS)[:4]
+    print(f'\n[evaluate] force model: calibration rig, {per_indentor} trials per indentor, '
+          '10-fold trial-wise CV with and without history features', flush=True)
+    started = time.monotonic()
+    dataset = calibration_dataset(per_indentor, hold, args.seed, indentors)
+    force = force_cross_validation(dataset, folds=10, stride=200 if args.quick else 600,
+                                   seed=args.seed)
+    results['timings']['force_cv_s'] = time.monotonic() - started
+    results['force'] = force
+    table = force_table(force)
+    print(table, flush=True)
+    return ['## Force estimation (10-fold trial-wise CV)', '', table, '']
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point (``python -m forte_bringup.evaluate``, ``forte_evaluate``)."""
+    args = _parser().parse_args(argv)
     trials = args.trials or (2 if args.quick else 10)
     args.output.mkdir(parents=True, exist_ok=True)
     results: dict = {'config': {'quick': args.quick, 'trials': trials, 'seed': args.seed,
                                 'jobs': args.jobs, 'controllers': args.controllers},
                      'timings': {}}
     markdown = ['# FORTE evaluation in simulation', '']
-
     if not args.skip_grasp:
-        objects = benchmark_objects(args.quick)
-        if args.objects:
-            objects = [pair for pair in objects if pair[0] in args.objects] or [
-                (name, _category_of(name)) for name in args.objects]
-        tasks = make_tasks(objects, args.controllers, trials, args.seed)
-        print(f'[evaluate] grasp benchmark: {len(objects)} objects x {trials} trials x '
-              f'{len(args.controllers)} controllers = {len(tasks)} closed-loop trials on '
-              f'{args.jobs} process(es)', flush=True)
-        started = time.monotonic()
-        records = run_benchmark(tasks, args.jobs, _progress_printer(started))
-        elapsed = time.monotonic() - started
-        results['timings']['grasp_benchmark_s'] = elapsed
-        forte = [r for r in records if r.controller == 'FORTE']
-        stats = latency_stats([v for r in forte for v in r.latencies],
-                              sum(r.missed_onsets for r in forte))
-        results['grasp'] = summary_json(records)
-        results['truth'] = confusion_json(records)
-        results['slip_latency'] = stats
-        results['trials'] = [r.to_dict() for r in records]
-        table = result_table(records)
-        latency = latency_table(stats)
-        print('\nGrasp success and slip detection (rows "paper": the paper\'s Table)\n'
-              + table, flush=True)
-        print('\nSlip detection latency, true onset to first flag (FORTE trials)\n' + latency,
-              flush=True)
-        truth = confusion_table(records)
-        truth_at_outcome = confusion_table(records, at_outcome=True)
-        print('\nController outcome against the ground-truth object state at the end of the '
-              'trial (! = contradicts the truth on whether the object was carried)\n' + truth,
-              flush=True)
-        print('\nSame, ground truth at the moment of the outcome\n' + truth_at_outcome,
-              flush=True)
-        markdown += ['## Grasp success and slip detection', '', table, '',
-                     '## Slip detection latency (onset to flag)', '', latency, '',
-                     '## Controller outcome against the ground truth', '',
-                     'Ground truth at the end of the trial (1 s after the outcome); `!` marks '
-                     'a contradiction on whether the object was carried (LIFTED vs RESTING '
-                     'or DROPPED, DROPPED or NOT_CARRIED vs HELD).', '', truth, '',
-                     'Ground truth at the moment of the outcome:', '', truth_at_outcome, '',
-                     f'{len(tasks)} trials in {elapsed:.1f} s on {args.jobs} process(es).', '']
-
+        markdown += grasp_evaluation(args, trials, results)
     if not args.skip_force:
-        per_indentor = 3 if args.quick else 40
-        hold = 4.0 if args.quick else 12.0
-        indentors = None
-        if args.quick:
-            from forte_driver.sim import INDENTORS
-            indentors = list(INDENTORS)[:4]
-        print(f'\n[evaluate] force model: calibration rig, {per_indentor} trials per indentor, '
-              '10-fold trial-wise CV with and without history features', flush=True)
-        started = time.monotonic()
-        dataset = calibration_dataset(per_indentor, hold, args.seed, indentors)
-        force = force_cross_validation(dataset, folds=10, stride=200 if args.quick else 600,
-                                       seed=args.seed)
-        results['timings']['force_cv_s'] = time.monotonic() - started
-        results['force'] = force
-        table = force_table(force)
-        print(table, flush=True)
-        markdown += ['## Force estimation (10-fold trial-wise CV)', '', table, '']
-
+        markdown += force_evaluation(args, results)
     (args.output / 'results.json').write_text(json.dumps(results, indent=1, default=float))
     (args.output / 'results.md').write_text('\n'.join(markdown) + '\n')
     print(f'\n[evaluate] results: {args.output / "results.json"}, '

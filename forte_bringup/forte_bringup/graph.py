@@ -9,6 +9,7 @@ Pure data (no rclpy, no launch).
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -116,6 +117,57 @@ class GraphSpec:
             if spec.name == name:
                 return spec
         raise KeyError(f'graph {self.name} has no node {name!r}')
+
+
+def argument_settings(spec: NodeSpec, arguments: Mapping[str, str],
+                      graph: GraphSpec | None = None) -> tuple[list[tuple[str, str]],
+                                                               dict[str, object]]:
+    """What the graph arguments set on one node: its remappings and parameters.
+
+    The one rule for both front ends (the launch files and :mod:`forte_bringup.bringup`).
+
+    Parameters
+    ----------
+    spec : NodeSpec
+        The node.
+    arguments : mapping of str to str
+        Argument values by name; an empty or missing value means "not given" (the YAML
+        value stays, the topic keeps its name).
+    graph : GraphSpec, optional
+        The graph whose argument kinds type the parameter values (default: the text as
+        given).
+
+    Returns
+    -------
+    remappings : list of (str, str)
+        The node's fixed remappings, then those its arguments set (a topic remapped to its
+        own name is left out).
+    parameters : dict
+        Parameter name -> value of every argument parameter given, in the order of
+        ``spec.argument_parameters`` (the fixed parameters are not included).
+
+    Raises
+    ------
+    ValueError
+        If a value is not of its argument's kind (``argument rate:=fast: ...``).
+    """
+    remappings = list(spec.remappings)
+    for source, argument in spec.argument_remaps:
+        target = arguments.get(argument, '')
+        if target and target != source:
+            remappings.append((source, target))
+    parameters: dict[str, object] = {}
+    for parameter, argument in spec.argument_parameters:
+        value = arguments.get(argument, '')
+        if value == '':
+            continue
+        if graph is not None:
+            try:
+                value = graph.argument(argument).typed(value)
+            except ValueError as error:
+                raise ValueError(f'argument {argument}:={value}: {error}') from error
+        parameters[parameter] = value
+    return remappings, parameters
 
 
 PERCEPTION = NodeSpec(

@@ -35,23 +35,24 @@ from forte_bringup.graph import (
     RECORDER,
     TRANSITION_ATTEMPTS,
     TRANSITION_RETRY_DELAY,
-    GraphSpec,
     NodeSpec,
+    argument_settings,
 )
 
 
-def _node_actions(spec: NodeSpec, graph: GraphSpec, context: LaunchContext,
-                  params_file: str) -> list[Action]:
-    """The actions that start one node of ``graph`` (and drive it if it is a lifecycle node).
+def _node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
+                  overrides: dict[str, object], params_file: str) -> list[Action]:
+    """The actions that start one node (and drive it if it is a lifecycle node).
 
     Parameters
     ----------
     spec : NodeSpec
         The node.
-    graph : GraphSpec
-        Its graph, whose argument kinds type the argument values.
-    context : LaunchContext
-        Context the launch arguments are read from.
+    remappings : list of (str, str)
+        Its remappings (:func:`forte_bringup.graph.argument_settings`).
+    overrides : dict
+        The parameters its arguments set (:func:`forte_bringup.graph.argument_settings`);
+        the node's fixed parameters are added here.
     params_file : str
         Parameter YAML of the graph.
 
@@ -62,14 +63,7 @@ def _node_actions(spec: NodeSpec, graph: GraphSpec, context: LaunchContext,
         and retry refused transitions, the ``LifecycleNode`` and the event that configures
         it.
     """
-    arguments = {name: LaunchConfiguration(name).perform(context)
-                 for name in {a for _, a in (*spec.argument_parameters, *spec.argument_remaps)}}
-    overrides = {parameter: graph.argument(argument).typed(arguments[argument])
-                 for parameter, argument in spec.argument_parameters if arguments[argument]}
-    overrides.update(dict(spec.fixed_parameters))
-    remappings = list(spec.remappings)
-    remappings += [(topic, arguments[argument]) for topic, argument in spec.argument_remaps
-                   if arguments[argument] and arguments[argument] != topic]
+    overrides = {**overrides, **dict(spec.fixed_parameters)}
     parameters = [params_file] + ([overrides] if overrides else [])
     if not spec.lifecycle:
         return [Node(package=spec.package, executable=spec.executable, name=spec.name,
@@ -176,9 +170,12 @@ def graph_launch_description(graph_name: str) -> LaunchDescription:
 
     def setup(context: LaunchContext) -> list[Action]:
         params_file = LaunchConfiguration('params_file').perform(context)
+        arguments = {argument.name: LaunchConfiguration(argument.name).perform(context)
+                     for argument in graph.arguments}
         actions = []
         for spec in graph.nodes:
-            actions += _node_actions(spec, graph, context, params_file)
+            actions += _node_actions(spec, *argument_settings(spec, arguments, graph),
+                                     params_file)
         if IfCondition(LaunchConfiguration('record')).evaluate(context):
             actions.append(_recorder_action(context))
         return actions

@@ -126,10 +126,7 @@ def plot_grasp(trace: GraspTrace, path: str | Path) -> Path:
     colors = plt.rcParams['axes.prop_cycle'].by_key()['color']
     t = trace.state_time
     ax = axes[0]
-    for channel, name in enumerate(CHANNEL_NAMES):
-        if trace.filtered.shape[0]:
-            ax.plot(t, trace.filtered[:, channel], color=colors[channel % 3],
-                    linestyle='-' if channel < 3 else '--', linewidth=0.9, label=name)
+    _plot_channels(ax, t, trace.filtered, colors, linewidth=0.9)
     ax.set_ylabel('filtered\n[normalised]')
     _legend(ax, ncol=3)
     ax.set_title(_title(trace), fontsize=11)
@@ -147,10 +144,7 @@ def plot_grasp(trace: GraspTrace, path: str | Path) -> Path:
     _legend(ax)
 
     ax = axes[2]
-    for channel, name in enumerate(CHANNEL_NAMES):
-        if trace.psd_max_db.shape[0]:
-            ax.plot(t, trace.psd_max_db[:, channel], color=colors[channel % 3],
-                    linestyle='-' if channel < 3 else '--', linewidth=0.8, label=name)
+    _plot_channels(ax, t, trace.psd_max_db, colors, linewidth=0.8)
     ax.set_ylabel('PSD max 10-50 Hz\n[dB re 1/Hz]')
 
     ax = axes[3]
@@ -192,6 +186,17 @@ def plot_grasp(trace: GraspTrace, path: str | Path) -> Path:
     figure.savefig(path, dpi=90, bbox_inches='tight')
     plt.close(figure)
     return path
+
+
+def _plot_channels(ax, t: np.ndarray, values: np.ndarray, colors: Sequence[str],
+                   linewidth: float) -> None:
+    """The six channels of ``values`` (n, 6) over ``t``: one colour per position along the
+    finger, left finger solid, right dashed (nothing if there are no rows)."""
+    if not values.shape[0]:
+        return
+    for channel, name in enumerate(CHANNEL_NAMES):
+        ax.plot(t, values[:, channel], color=colors[channel % 3],
+                linestyle='-' if channel < 3 else '--', linewidth=linewidth, label=name)
 
 
 def _legend(ax, ncol: int = 1) -> None:

@@ -7,8 +7,9 @@ context of its own, spun in a background thread (:func:`watching`), that counts 
 graph's messages, reads lifecycle states and parameters over the nodes' services and sends
 Grasp goals. Also here: a bag of a quiet sensor for the replay graph
 (:func:`write_quiet_bag`), the emulated sensor and simulated servos on pseudo-terminals
-for the hardware graph (:func:`emulated_devices`) and the simulated-rig force model
-(:func:`force_model_file`).
+for the hardware graph (:func:`emulated_devices`), the simulated-rig force model
+(:func:`force_model_file`) and a command-line module run as a child process and stopped with
+Ctrl-C (:func:`python_module`, :func:`interrupt`).
 
 Imported as ``from graph_probe import ...``: in pytest's default (prepend) import mode the
 folder of the test files is on ``sys.path``; the basename is unique in the repository.
@@ -265,6 +266,36 @@ def watching() -> Iterator[Watcher]:
         thread.join(timeout=5)
 
 
+@contextmanager
+def python_module(module: str, *arguments: str) -> Iterator[subprocess.Popen]:
+    """``python -m <module> <arguments>`` as a child process (this environment).
+
+    Its stdout and stderr are merged into one text pipe; it is killed on leaving the block
+    if it is still running (a test that failed before stopping it).
+    """
+    process = subprocess.Popen([sys.executable, '-m', module, *arguments],
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        yield process
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+
+
+def interrupt(process: subprocess.Popen, timeout: float) -> str:
+    """Send SIGINT (Ctrl-C) to ``process``; the rest of its output once it has exited.
+
+    Raises
+    ------
+    subprocess.TimeoutExpired
+        If it has not exited within ``timeout`` s.
+    """
+    process.send_signal(signal.SIGINT)
+    output, _ = process.communicate(timeout=timeout)
+    return output
+
+
 def write_quiet_bag(path: Path, messages: int = 600, first_second: int = 1000,
                     seed: int = 0) -> Path:
     """Write a bag of a quiet sensor (``tactile/frames`` at 2 kHz) with the project's writer.
@@ -348,7 +379,7 @@ def emulated_devices(folder: Path, timeout: float = 20.0) -> Iterator[tuple[Path
 
 def force_model_file(path: Path) -> Path:
     """Save the simulated-rig force model (cached across runs) to ``path`` and return it."""
-    from forte_bringup.closed_loop import default_force_model
+    from forte_bringup.sim_force_model import default_force_model
 
     default_force_model().save(path)
     return path

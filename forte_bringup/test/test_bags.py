@@ -7,10 +7,6 @@ rosbags' rosbag2 reader, and its ``metadata.yaml`` is checked as ``ros2 bag`` re
 """
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
@@ -19,6 +15,7 @@ import numpy as np
 import pytest
 import rclpy
 import yaml
+from graph_probe import interrupt, python_module
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rclpy.executors import SingleThreadedExecutor
@@ -188,22 +185,15 @@ def test_forte_record_executable_stops_cleanly_on_sigint(executor, tmp_path):
     talker = Talker(best_effort=True)  # the sensor-data QoS of the contract
     executor.add_node(talker)
     bag = tmp_path / 'cli_bag'
-    process = subprocess.Popen(
-        [sys.executable, '-m', 'forte_bringup.record', '-o', str(bag),
-         '--topics', 'tactile/frames'],
-        env=os.environ.copy(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    try:
+    with python_module('forte_bringup.record', '-o', str(bag),
+                       '--topics', 'tactile/frames') as process:
         assert wait_for(lambda: talker.frames.get_subscription_count() == 1, timeout=20.0)
         time.sleep(0.5)
         for index in range(100):
             talker.frames.publish(make_frames(index))
             time.sleep(0.005)
         time.sleep(0.5)
-        process.send_signal(signal.SIGINT)
-        output, _ = process.communicate(timeout=20)
-    finally:
-        if process.poll() is None:
-            process.kill()
+        output = interrupt(process, timeout=20)
     assert process.returncode == 0, output
     assert 'bag closed' in output
     metadata = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']

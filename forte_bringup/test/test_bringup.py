@@ -10,11 +10,7 @@ the launch tests (``test_launch_graphs.py``).
 """
 from __future__ import annotations
 
-import importlib.util
 import os
-import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -22,6 +18,8 @@ import pytest
 from graph_probe import (
     emulated_devices,
     force_model_file,
+    interrupt,
+    python_module,
     wait_for,
     watching,
     write_quiet_bag,
@@ -35,17 +33,6 @@ from forte_bringup.bringup import (
     parse_graph_arguments,
 )
 from forte_bringup.graph import GRAPHS, parameter_text, params_file
-
-
-def modules_exist(graph: str) -> list[str]:
-    return [s.executable for s in GRAPHS[graph].nodes
-            if importlib.util.find_spec(f'{s.package}.{s.executable}') is None]
-
-
-def need_graph(graph: str) -> None:
-    missing = modules_exist(graph)
-    if missing:
-        pytest.skip(f'node modules of the {graph} graph not written yet: {missing}')
 
 
 # --- command lines (pure) ------------------------------------------------------------------
@@ -128,7 +115,6 @@ def watcher():
 
 @pytest.mark.slow
 def test_hardware_graph_on_emulated_devices(watcher, tmp_path):
-    need_graph('hardware')
     with emulated_devices(tmp_path) as (sensor_link, servo_link):
         bringup = Bringup('hardware', {'sensor_port': str(sensor_link),
                                        'gripper_port': str(servo_link)},
@@ -151,7 +137,6 @@ def test_hardware_graph_on_emulated_devices(watcher, tmp_path):
 
 @pytest.mark.slow
 def test_sim_graph_serves_a_grasp(watcher, tmp_path):
-    need_graph('sim')
     from forte_msgs.action import Grasp
     from forte_msgs.msg import GraspState, SimGroundTruth
 
@@ -195,13 +180,9 @@ def test_sim_graph_serves_a_grasp(watcher, tmp_path):
 
 @pytest.mark.slow
 def test_forte_bringup_command_stops_cleanly_on_sigint(tmp_path):
-    need_graph('sim')
-    process = subprocess.Popen(
-        [sys.executable, '-m', 'forte_bringup.bringup', 'sim', '--quiet',
-         '--log-dir', str(tmp_path / 'logs')],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines = []
-    try:
+    with python_module('forte_bringup.bringup', 'sim', '--quiet',
+                       '--log-dir', str(tmp_path / 'logs')) as process:
         deadline = time.monotonic() + 60.0
         while time.monotonic() < deadline:
             line = process.stdout.readline()
@@ -212,11 +193,7 @@ def test_forte_bringup_command_stops_cleanly_on_sigint(tmp_path):
                 break
         assert any('graph up' in line for line in lines), ''.join(lines)
         time.sleep(1.0)
-        process.send_signal(signal.SIGINT)
-        output, _ = process.communicate(timeout=60)
-    finally:
-        if process.poll() is None:
-            process.kill()
+        output = interrupt(process, timeout=60)
     assert process.returncode == 0, ''.join(lines) + output
     assert 'stopped: ' in output
     for name in ('sim', 'perception', 'grasp_controller'):
@@ -225,7 +202,6 @@ def test_forte_bringup_command_stops_cleanly_on_sigint(tmp_path):
 
 @pytest.mark.slow
 def test_replay_graph_drives_perception_from_a_bag(watcher, tmp_path):
-    need_graph('replay')
     bag = write_quiet_bag(tmp_path / 'bag')  # 6 s of quiet sensor at 2 kHz
     bringup = Bringup('replay', {'bag': str(bag), 'rate': '2'}, log_dir=tmp_path / 'logs',
                       echo=None)

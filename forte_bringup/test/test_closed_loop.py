@@ -1,7 +1,7 @@
 """Closed-loop tests: simulated scene + perception pipeline + grasp state machine (no ROS).
 
 The force model is trained once on the simulated calibration rig and cached on disk
-(``forte_bringup.closed_loop.default_force_model``); the first run pays ~10-20 s for it.
+(``forte_bringup.sim_force_model.default_force_model``); the first run pays ~10-20 s for it.
 """
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from demo_scenes import EXPECTED, closed_loop_results, mismatches
 
-from forte_bringup.closed_loop import _controller, default_force_model, run_trial
+from forte_bringup.closed_loop import _controller, run_trial
+from forte_bringup.sim_force_model import default_force_model
 from forte_control.state_machine import PAPER_SLIP_INCREMENT, Controller, GraspState
 
 pytestmark = pytest.mark.slow  # the whole module takes ~1 min with the model training

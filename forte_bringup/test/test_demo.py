@@ -17,8 +17,8 @@ import pytest
 from demo_scenes import EXPECTED, closed_loop_results, mismatches
 from mcap.reader import make_reader
 
-from forte_bringup.closed_loop import default_force_model
 from forte_bringup.demo import DEFAULT_CONTROLLERS, DEFAULT_OBJECTS
+from forte_bringup.sim_force_model import default_force_model
 
 
 @pytest.mark.slow

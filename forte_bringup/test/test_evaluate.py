@@ -1,7 +1,6 @@
 """The evaluation harness: task generation, aggregation, force CV, the command line."""
 from __future__ import annotations
 
-import importlib.util
 import json
 
 import numpy as np
@@ -18,8 +17,6 @@ from forte_bringup.evaluate import (
     run_benchmark,
 )
 from forte_bringup.metrics import TrialRecord, summarize
-
-HAS_CLOSED_LOOP = importlib.util.find_spec('forte_bringup.closed_loop') is not None
 
 
 def test_benchmark_objects_cover_the_paper_categories():
@@ -74,7 +71,6 @@ def test_run_benchmark_aggregates_in_task_order():
     assert [r.missed_onsets for r in forte] == [1, 0, 1, 0]
 
 
-@pytest.mark.skipif(not HAS_CLOSED_LOOP, reason='forte_bringup.closed_loop not written yet')
 def test_parallel_workers_give_the_serial_results_in_task_order():
     tasks = make_tasks([('raspberry', 'fragile_deformable'), ('soda_can', 'slippery')],
                        ['NO_SLIP', 'FORTE'], trials=1, seed=3)
@@ -138,8 +134,6 @@ def test_command_line_force_only_writes_results(tmp_path, capsys):
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not HAS_CLOSED_LOOP,
-                    reason='forte_bringup.closed_loop (the control engineer\'s) not written yet')
 def test_quick_evaluation_end_to_end(tmp_path, capsys):
     assert evaluate.main(['--quick', '--skip-force', '--jobs', '2',
                           '--output', str(tmp_path)]) == 0

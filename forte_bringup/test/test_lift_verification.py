@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import pytest
 
-from forte_bringup.closed_loop import default_force_model, run_trial
+from forte_bringup.closed_loop import run_trial
+from forte_bringup.sim_force_model import default_force_model
 
 pytestmark = pytest.mark.slow  # ~1 min: seven closed-loop trials (and the model, if not cached)
 

@@ -1,0 +1,154 @@
+"""The force model of simulated closed-loop trials: trained on the simulated calibration rig.
+
+The force model (needed by FORTE and NO_SLIP; :mod:`forte_bringup.closed_loop`, the demo and
+the benchmarks use it) is trained once from the simulated calibration rig
+(:func:`default_force_model`) and cached on disk, keyed by a hash of the simulator's and
+perception's source and the training settings, so a change of either retrains it.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ['FORCE_TRAINING', 'calibration_features', 'default_force_model',
+           'train_force_model']
+
+#: Training settings of the cached force model (part of the cache key).
+FORCE_TRAINING = {
+    'trials_per_indentor': 8,   # 6 indentors -> 48 trials
+    'quiet_seconds': 1.0,       # tare period at the start of each trial
+    'close_seconds': 0.5,       # closing ramp to a random angle
+    'hold_seconds': 4.0,        # hold at the angle (relaxation)
+    'stride': 40,               # feature subsampling for training [samples]
+    'seed': 12345,
+    'C': 10.0,
+    'epsilon': 0.02,
+}
+
+_MODEL_CACHE: dict[str, object] = {}
+
+
+def _source_hash() -> str:
+    """Hash of the simulator and perception sources and the training settings."""
+    import forte_driver.sim as sim
+    import forte_perception
+
+    digest = hashlib.sha256(repr(sorted(FORCE_TRAINING.items())).encode())
+    for package in (Path(sim.__file__).parent, Path(forte_perception.__file__).parent):
+        for path in sorted(package.glob('*.py')):
+            digest.update(path.name.encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _cache_dir() -> Path:
+    folder = os.environ.get('FORTE_CACHE_DIR')
+    path = Path(folder) if folder else Path(tempfile.gettempdir()) / 'forte-cache'
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def calibration_features(settings: dict | None = None) -> tuple[np.ndarray, np.ndarray,
+                                                                np.ndarray]:
+    """Simulated calibration rig -> training features, as the contract's trainer does.
+
+    Per trial (every indentor x ``trials_per_indentor``): quiet period, closing ramp to an
+    angle drawn uniformly between fully closed and just touching, hold. Each trial is tared
+    by the mean of its quiet raw samples, median-filtered (11, causal, streaming) and its 24
+    force features computed at full rate, then subsampled by ``stride``.
+
+    Returns
+    -------
+    features : ndarray, shape (m, 24)
+    force : ndarray, shape (m,)
+        Load-cell force [N].
+    trial : ndarray, shape (m,)
+        Trial id.
+    """
+    from forte_driver.sim import INDENTORS, SAMPLE_RATE, make_scene
+    from forte_perception.force import force_features
+    from forte_perception.median import RunningMedian
+
+    s = dict(FORCE_TRAINING, **(settings or {}))
+    rng = np.random.default_rng(s['seed'])
+    quiet = int(s['quiet_seconds'] * SAMPLE_RATE)
+    close = int(s['close_seconds'] * SAMPLE_RATE)
+    hold = int(s['hold_seconds'] * SAMPLE_RATE)
+    chunk = 400
+    features, force, trials = [], [], []
+    trial_id = 0
+    for name in INDENTORS:
+        for _ in range(s['trials_per_indentor']):
+            scene = make_scene('calibration', indentor=name, seed=s['seed'] + trial_id,
+                               trial=trial_id)
+            start = scene.initial_angle
+            target = float(rng.uniform(0.0, scene.theta_zero_force))
+            frames, loads = [], []
+            done = 0
+            total = quiet + close + hold
+            while done < total:
+                n = min(chunk, total - done)
+                if done < quiet:
+                    command = start
+                else:
+                    command = start + (target - start) * min((done - quiet + n) / close, 1.0)
+                block, truth = scene.step(n, command, 0.0)
+                frames.append(block)
+                loads.append(truth.load_cell_force)
+                done += n
+            raw = np.concatenate(frames)
+            load = np.concatenate(loads)
+            baseline = raw[:quiet].mean(axis=0)
+            median = RunningMedian(11, 6)
+            filtered = median.update(raw) - baseline
+            feats = force_features(filtered, fs=SAMPLE_RATE)
+            pick = np.arange(quiet // 2, total, s['stride'])
+            features.append(feats[pick])
+            force.append(load[pick])
+            trials.append(np.full(pick.size, trial_id))
+            trial_id += 1
+    return np.concatenate(features), np.concatenate(force), np.concatenate(trials)
+
+
+def train_force_model(settings: dict | None = None):
+    """Train a :class:`forte_perception.force.ForceModel` on the simulated calibration rig."""
+    from forte_perception.force import ForceModel
+
+    s = dict(FORCE_TRAINING, **(settings or {}))
+    features, force, _ = calibration_features(s)
+    return ForceModel.fit(features, force, C=s['C'], epsilon=s['epsilon'],
+                          force_range=(0.0, 10.0),
+                          metadata={'source': 'forte_bringup.closed_loop simulated rig',
+                                    'settings': {k: v for k, v in s.items()}})
+
+
+def default_force_model(refresh: bool = False):
+    """The cached force model for closed-loop trials (trained on first use, ~10 s).
+
+    Cached in memory and in ``$FORTE_CACHE_DIR`` (default ``<tmp>/forte-cache``) under a key
+    that changes with the simulator / perception sources and :data:`FORCE_TRAINING`.
+    """
+    from forte_perception.force import ForceModel
+
+    key = _source_hash()
+    if not refresh and key in _MODEL_CACHE:
+        return _MODEL_CACHE[key]
+    path = _cache_dir() / f'force_model_{key}.npz'
+    model = None
+    if path.exists() and not refresh:
+        try:
+            model = ForceModel.load(path)
+        except (ValueError, OSError, KeyError):
+            model = None  # damaged cache: retrain
+    if model is None:
+        model = train_force_model()
+        partial = path.with_suffix(f'.{os.getpid()}.tmp')
+        model.save(partial)
+        os.replace(partial, path)  # atomic: concurrent workers never read half a file
+    _MODEL_CACHE[key] = model
+    return model
+
