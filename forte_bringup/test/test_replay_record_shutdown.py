@@ -52,16 +52,6 @@ def long_bag(tmp_path_factory) -> Path:
     return write_bag(tmp_path_factory.mktemp('bags') / 'long', 30000)
 
 
-def stop_cleanly(process: NodeProcess, signum: int) -> None:
-    code, elapsed = process.stop(signum, timeout=15.0)
-    name = signal.Signals(signum).name
-    print(f'{Path(process.command[0]).name} {name}: stopped in {elapsed:.3f} s')
-    assert code == 0, f'exit code {code}:\n{process.output}'
-    assert elapsed < 5.0, f'{elapsed:.2f} s to stop:\n{process.output}'
-    assert not process.failures(), process.output
-    assert f'{name} received: stopping' in process.output
-
-
 @pytest.mark.parametrize('signum, rate', [(signal.SIGINT, 1.0), (signal.SIGTERM, 1.0),
                                           (signal.SIGINT, 0.0)],
                          ids=['SIGINT', 'SIGTERM', 'SIGINT-as-fast-as-possible'])
@@ -75,7 +65,7 @@ def test_bag_replay_node_stops_cleanly_mid_replay(long_bag, signum, rate):
         with NodeProcess(command) as process:
             assert wait_until(lambda: probe.counts['tactile/frames'] >= 20, 40.0), \
                 process.output
-            stop_cleanly(process, signum)
+            process.stop_cleanly(signum)
     assert 'replay finished' not in process.output  # it was stopped in the middle
 
 
@@ -116,7 +106,7 @@ def test_forte_record_finishes_the_bag_on_a_signal(tmp_path, signum):
                 process.output
             start = sent[0]
             assert wait_until(lambda: sent[0] >= start + 50, 20.0)
-            stop_cleanly(process, signum)
+            process.stop_cleanly(signum)
     assert 'bag closed' in process.output
     recorded = int(process.output.split('/tactile/frames: ')[1].split()[0])
     assert recorded >= 40, process.output

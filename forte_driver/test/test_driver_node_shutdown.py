@@ -44,16 +44,6 @@ def wait_publishing(probe: Probe, process: NodeProcess, topic: str, at_least: in
         f'nothing on {topic}:\n{process.output}')
 
 
-def stop_cleanly(process: NodeProcess, signum: int) -> float:
-    code, elapsed = process.stop(signum, timeout=15.0)
-    assert code == 0, f'exit code {code} after {signal.Signals(signum).name}:\n{process.output}'
-    assert not process.failures(), process.output
-    assert elapsed < STOP_TIMEOUT, f'{elapsed:.2f} s to stop:\n{process.output}'
-    assert f'{signal.Signals(signum).name} received: stopping' in process.output
-    print(f'{process.command[0]} {signal.Signals(signum).name}: stopped in {elapsed:.3f} s')
-    return elapsed
-
-
 # ---- sim_node ------------------------------------------------------------------------------
 
 @pytest.mark.parametrize('signum, factor', [(signal.SIGINT, 1.0), (signal.SIGTERM, 1.0),
@@ -63,7 +53,7 @@ def test_sim_node_stops_cleanly(probe, signum, factor):
     with NodeProcess(['sim_node', *ros_args(real_time_factor=factor)]) as process:
         wait_publishing(probe, process, 'tactile/frames')
         wait_publishing(probe, process, 'joint_states')
-        stop_cleanly(process, signum)
+        process.stop_cleanly(signum, within=STOP_TIMEOUT)
     assert 'shut down from active: production stopped' in process.output
 
 
@@ -81,7 +71,7 @@ def test_sim_node_refuses_invalid_transitions_and_keeps_publishing(probe):
         assert probe.change_state('forte_sim', label='cleanup') is False  # only from inactive
         assert probe.state('forte_sim') == 'active'
         wait_publishing(probe, process, 'tactile/frames')
-        stop_cleanly(process, signal.SIGINT)
+        process.stop_cleanly(signal.SIGINT, within=STOP_TIMEOUT)
     assert process.output.count('refused in state') == 4
     assert 'shut down from active' in process.output
 
@@ -99,7 +89,7 @@ def test_serial_sensor_node_stops_the_device_and_closes_the_port(probe, tmp_path
         assert probe.change_state('serial_sensor_node',
                                   Transition.TRANSITION_CONFIGURE) is False
         wait_publishing(probe, process, 'tactile/frames')
-        stop_cleanly(process, signum)
+        process.stop_cleanly(signum, within=STOP_TIMEOUT)
         assert wait_until(lambda: not sensor.streaming, 5.0), 'the device was not stopped'
         assert sensor.commands[-1].command == Command.STOP
     assert 'shut down from active: reader stopped, port closed' in process.output
@@ -119,7 +109,7 @@ def test_gripper_driver_node_leaves_the_servos_as_the_parameter_says(probe, sign
         assert probe.change_state('gripper_driver', Transition.TRANSITION_ACTIVATE) is False
         assert probe.state('gripper_driver') == 'active'
         wait_publishing(probe, process, 'joint_states')
-        stop_cleanly(process, signum)
+        process.stop_cleanly(signum, within=STOP_TIMEOUT)
         torque = 0 if release else 1
         assert bus.register_value(1, 'Torque Enable') == torque
         assert bus.register_value(2, 'Torque Enable') == torque

@@ -143,6 +143,19 @@ class NodeProcess:
         self._pump.join(timeout=5.0)
         return code, elapsed
 
+    def stop_cleanly(self, signum: int = signal.SIGINT, within: float = 5.0) -> float:
+        """Send ``signum`` and assert the clean stop of docs/contracts.md: the signal is
+        acknowledged (``<SIGNAME> received: stopping``), exit code 0 within ``within`` [s],
+        no traceback or error marker in the output. Returns the seconds it took."""
+        code, elapsed = self.stop(signum, timeout=3 * within)
+        name = signal.Signals(signum).name
+        print(f'{Path(self.command[0]).name} {name}: stopped in {elapsed:.3f} s')
+        assert code == 0, f'exit code {code} after {name}:\n{self.output}'
+        assert elapsed < within, f'{elapsed:.2f} s to stop after {name}:\n{self.output}'
+        assert not self.failures(), self.output
+        assert f'{name} received: stopping' in self.output, self.output
+        return elapsed
+
     def kill(self) -> None:
         """SIGKILL if still running (test clean-up)."""
         if self.process.poll() is None:
