@@ -42,7 +42,7 @@ from collections import deque
 from dataclasses import dataclass, replace
 from typing import Any
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -52,18 +52,21 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import (
-    DurabilityPolicy,
-    HistoryPolicy,
-    QoSProfile,
-    ReliabilityPolicy,
-    qos_profile_sensor_data,
-)
+from rclpy.qos import qos_profile_sensor_data
 from rclpy.task import Future
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 
+from forte_control.grasp_messages import (
+    feedback_msg,
+    goal_from_msg,
+    grasp_state_msg,
+    result_msg,
+    servo_command_msg,
+    stamp_to_seconds,
+)
 from forte_control.gripper_command import GripperCommand, GripperCommandMixin
+from forte_control.lift_check import WrenchInput
 from forte_control.node_parameters import (
     CONTROLLER_FIELDS,
     declare_parameters,
@@ -71,18 +74,18 @@ from forte_control.node_parameters import (
     read_controller_params,
     read_lift_check,
 )
-from forte_control.state_machine import (
+from forte_control.state_machine import GraspStateMachine
+from forte_control.state_machine.types import (
     ACTIVE_STATES,
     ControlInputs,
     Controller,
     ControlOutputs,
     GraspGoal,
     GraspState,
-    GraspStateMachine,
     JointInput,
     Outcome,
     PerceptionInput,
-    WrenchInput,
+    ServoOutput,
     perception_input,
 )
 from forte_msgs.action import Grasp
@@ -90,23 +93,10 @@ from forte_msgs.msg import GraspState as GraspStateMsg
 from forte_msgs.msg import ServoCommand, TactileState
 from forte_msgs.srv import ResetFault
 from forte_ros import run_node
-
-RELIABLE10 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                        reliability=ReliabilityPolicy.RELIABLE)
-RELIABLE50 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50,
-                        reliability=ReliabilityPolicy.RELIABLE)
-LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
-                     reliability=ReliabilityPolicy.RELIABLE,
-                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
+from forte_ros.qos import COMMANDS, DIAGNOSTICS, GRASP_STATE, TACTILE_STATE
 
 __all__ = ['CONTROLLER_FIELDS', 'GraspControllerNode', 'main', 'stamp_to_seconds']
-
-
-def stamp_to_seconds(stamp: Any) -> float:
-    """builtin_interfaces/Time -> float seconds (NaN for a zero stamp, i.e. never set)."""
-    if stamp.sec == 0 and stamp.nanosec == 0:
-        return math.nan
-    return stamp.sec + stamp.nanosec * 1e-9
 
 
 @dataclass
@@ -164,11 +154,11 @@ class GraspControllerNode(GripperCommandMixin, Node):
     def _create_interfaces(self) -> None:
         """Publishers, timers, the reset service and the action servers (the subscriptions
         come with a goal, :meth:`_listen`)."""
-        self._servo_pub = self.create_publisher(ServoCommand, 'gripper/command', RELIABLE10)
-        self._arm_pub = self.create_publisher(TwistStamped, 'arm/cmd_vel', RELIABLE10)
-        self._state_pub = self.create_publisher(GraspStateMsg, 'grasp/state', LATCHED)
+        self._servo_pub = self.create_publisher(ServoCommand, 'gripper/command', COMMANDS)
+        self._arm_pub = self.create_publisher(TwistStamped, 'arm/cmd_vel', COMMANDS)
+        self._state_pub = self.create_publisher(GraspStateMsg, 'grasp/state', GRASP_STATE)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics',
-                                                      RELIABLE10)
+                                                      DIAGNOSTICS)
         # a group of its own: the coroutine holds its group while it awaits the inputs,
         # which arrive through the default group (one thread runs both)
         self.create_service(ResetFault, 'grasp/reset_fault', self._on_reset_fault,
@@ -225,9 +215,9 @@ class GraspControllerNode(GripperCommandMixin, Node):
             return
         self._input_subscriptions = [
             self.create_subscription(TactileState, 'tactile/state', self._on_tactile,
-                                     RELIABLE50),
+                                     TACTILE_STATE),
             self.create_subscription(JointState, 'joint_states', self._on_joint_state,
-                                     RELIABLE10),
+                                     COMMANDS),
             self.create_subscription(WrenchStamped, 'arm/wrench', self._on_wrench,
                                      qos_profile_sensor_data)]
         self._timer.reset()
@@ -358,13 +348,7 @@ class GraspControllerNode(GripperCommandMixin, Node):
         self._last_outputs = outputs
         active = outputs.state in ACTIVE_STATES
         if outputs.servo is not None and outputs.servo_changed and not self._dry_run:
-            msg = ServoCommand()
-            msg.header.stamp = self._time_msg()
-            msg.header.frame_id = str(self.get_parameter('gripper_frame_id').value)
-            msg.position = outputs.servo.position
-            msg.max_current = outputs.servo.max_current
-            msg.profile_velocity = outputs.servo.profile_velocity
-            self._servo_pub.publish(msg)
+            self._publish_servo(outputs.servo)
         if self._was_active and not active:
             self._publish_arm(0.0)  # stop immediately, do not wait for the timer
         self._was_active = active
@@ -373,6 +357,10 @@ class GraspControllerNode(GripperCommandMixin, Node):
             grasp.done.set_result(outputs)  # resumes the execute coroutine
         self._publish_state()
 
+    def _publish_servo(self, servo: ServoOutput) -> None:
+        self._servo_pub.publish(servo_command_msg(
+            servo, self._time_msg(), str(self.get_parameter('gripper_frame_id').value)))
+
     def _publish_arm(self, velocity: float) -> None:
         msg = TwistStamped()
         msg.header.stamp = self._time_msg()
@@ -380,31 +368,11 @@ class GraspControllerNode(GripperCommandMixin, Node):
         msg.twist.linear.z = 0.0 if self._dry_run else float(velocity)
         self._arm_pub.publish(msg)
 
-    def _state_msg(self) -> GraspStateMsg:
-        out = self._last_outputs
-        msg = GraspStateMsg()
-        msg.header.stamp = self._time_msg()
-        msg.header.frame_id = str(self.get_parameter('gripper_frame_id').value)
-        msg.state = int(self._machine.state)
-        msg.fault_flags = int(self._machine.fault_flags)
-        msg.last_outcome = int(self._machine.last_outcome)
-        if out is not None:
-            msg.controller = int(out.controller)
-            msg.target_force = _finite_or_zero(out.target_force)
-            msg.estimated_force = _finite_or_zero(out.estimated_force)
-            msg.force_valid = bool(out.force_valid)
-            msg.servo_command = float(out.servo.position) if out.servo is not None else math.nan
-            msg.tightening = float(out.tightening)
-            msg.lift_height = float(out.lift_height)
-            msg.slip_events = int(out.slip_events)
-            msg.message = out.message
-        else:
-            msg.servo_command = math.nan
-            msg.message = 'idle'
-        return msg
-
     def _publish_state(self, force: bool = False) -> None:
-        msg = self._state_msg()
+        machine = self._machine
+        msg = grasp_state_msg(machine.state, machine.fault_flags, machine.last_outcome,
+                              self._last_outputs, self._time_msg(),
+                              str(self.get_parameter('gripper_frame_id').value))
         key = (msg.state, msg.fault_flags, msg.last_outcome, msg.message, msg.slip_events)
         if force or key != self._last_state_published:
             self._state_pub.publish(msg)
@@ -416,18 +384,7 @@ class GraspControllerNode(GripperCommandMixin, Node):
         grasp, out = self._grasp, self._last_outputs
         if grasp is None or grasp.done.done() or out is None:
             return
-        perception = self._perception
-        feedback = Grasp.Feedback()
-        feedback.state = int(out.state)
-        feedback.estimated_force = _finite_or_zero(out.estimated_force)
-        feedback.slip = bool(perception.slip) if perception is not None else False
-        if perception is not None:
-            feedback.finger_variance = [float(v) for v in perception.finger_variance]
-        feedback.servo_command = float(out.servo.position) if out.servo is not None \
-            else math.nan
-        feedback.lift_height = float(out.lift_height)
-        feedback.slip_events = int(out.slip_events)
-        grasp.handle.publish_feedback(feedback)
+        grasp.handle.publish_feedback(feedback_msg(out, self._perception))
 
     # -- diagnostics -----------------------------------------------------------------------
     def _publish_diagnostics(self) -> None:
@@ -435,16 +392,8 @@ class GraspControllerNode(GripperCommandMixin, Node):
             self._publish_state(force=True)  # idle: the once-a-second grasp/state
         now = self._now()
         state = self._machine.state
-        status = DiagnosticStatus()
-        status.name = f'{self.get_name()}: grasp controller'
-        status.hardware_id = 'forte'
-        if state == GraspState.FAULT:
-            status.level = DiagnosticStatus.ERROR
-        elif self._dry_run:
-            status.level = DiagnosticStatus.WARN
-        else:
-            status.level = DiagnosticStatus.OK
-        status.message = f'{state.name}' + (' (dry run)' if self._dry_run else '') + \
+        level = ERROR if state == GraspState.FAULT else WARN if self._dry_run else OK
+        message = f'{state.name}' + (' (dry run)' if self._dry_run else '') + \
             (f': {self._last_outputs.message}' if self._last_outputs is not None else '')
         ages = {
             'perception_age_s': now - self._perception.stamp
@@ -463,11 +412,9 @@ class GraspControllerNode(GripperCommandMixin, Node):
             'slip_reaction_latency_max_ms': f'{latencies[-1] * 1e3:.3f}'
             if latencies else 'n/a',
         }
-        status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
-        array = DiagnosticArray()
-        array.header.stamp = self._time_msg()
-        array.status = [status]
-        self._diagnostics_pub.publish(array)
+        status = diagnostic_status(f'{self.get_name()}: grasp controller', level, message,
+                                   values, hardware_id='forte')
+        self._diagnostics_pub.publish(diagnostic_array(self._time_msg(), [status]))
 
     # -- reset service -------------------------------------------------------------------
     async def _on_reset_fault(self, request: ResetFault.Request,
@@ -493,15 +440,8 @@ class GraspControllerNode(GripperCommandMixin, Node):
         self._publish_state(force=True)
 
     # -- Grasp action --------------------------------------------------------------------
-    @staticmethod
-    def goal_from_msg(request: Grasp.Goal) -> GraspGoal:
-        """forte_msgs Grasp goal -> :class:`GraspGoal`."""
-        return GraspGoal(
-            controller=request.controller, initial_force=request.initial_force,
-            lift_speed=request.lift_speed, lift_distance=request.lift_distance,
-            slip_increment=request.slip_increment, max_tightening=request.max_tightening,
-            max_force=request.max_force, timeout=request.timeout,
-            release_after=request.release_after)
+    #: forte_msgs Grasp goal -> GraspGoal (:func:`forte_control.grasp_messages.goal_from_msg`).
+    goal_from_msg = staticmethod(goal_from_msg)
 
     def _on_goal(self, request: Grasp.Goal) -> GoalResponse:
         if self._stopping:
@@ -567,12 +507,12 @@ class GraspControllerNode(GripperCommandMixin, Node):
                 goal_handle.canceled()
             else:
                 goal_handle.abort()
-            return self._result(Outcome.CANCELED, 'canceled before the grasp started', 0.0)
+            return result_msg(Outcome.CANCELED, 'canceled before the grasp started', 0.0)
         ok, reason = self._machine.start(goal, self._now(), self._inputs())
         if not ok:
             self.get_logger().warning(f'grasp refused: {reason}')
             goal_handle.abort()
-            return self._result(Outcome.FAULT, f'refused: {reason}', 0.0)
+            return result_msg(Outcome.FAULT, f'refused: {reason}', 0.0)
         grasp = _RunningGrasp(goal_handle, Future(), time.monotonic())
         self._grasp = grasp
         self.get_logger().info(f'grasp started ({Controller(goal.controller).name})')
@@ -591,24 +531,7 @@ class GraspControllerNode(GripperCommandMixin, Node):
         else:
             goal_handle.abort()
         self.get_logger().info(f'grasp finished: {outcome.name}: {message}')
-        return self._result(outcome, message, duration, out)
-
-    @staticmethod
-    def _result(outcome: Outcome, message: str, duration: float,
-                out: ControlOutputs | None = None) -> Grasp.Result:
-        result = Grasp.Result()
-        result.outcome = int(outcome)
-        result.message = message
-        result.duration = float(duration)
-        if out is not None:
-            result.final_force = _finite_or_zero(out.estimated_force)
-            result.lift_height = float(out.lift_height)
-            result.slip_events = int(out.slip_events)
-            result.tightening = float(out.tightening)
-        return result
-
-def _finite_or_zero(value: float) -> float:
-    return float(value) if math.isfinite(value) else 0.0
+        return result_msg(outcome, message, duration, out)
 
 
 def single_threaded_executor(context: Context) -> SingleThreadedExecutor:

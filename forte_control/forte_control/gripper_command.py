@@ -16,8 +16,7 @@ from rclpy.action import GoalResponse
 from rclpy.action.server import ServerGoalHandle
 from rclpy.task import Future
 
-from forte_control.state_machine import ACTIVE_STATES, GraspState
-from forte_msgs.msg import ServoCommand
+from forte_control.state_machine import ACTIVE_STATES, GraspState, ServoOutput
 
 try:  # standard gripper action for MoveIt, only where control_msgs is installed
     from control_msgs.action import GripperCommand
@@ -80,14 +79,10 @@ class GripperCommandMixin:
         position = float(goal_handle.request.command.position)
         effort = float(goal_handle.request.command.max_effort)
         if not self._dry_run:
-            msg = ServoCommand()
-            msg.header.stamp = self._time_msg()
-            msg.header.frame_id = str(self.get_parameter('gripper_frame_id').value)
-            msg.position = position
-            msg.max_current = min(effort, params.max_current) if effort > 0.0 \
-                else params.max_current
-            msg.profile_velocity = params.release_speed
-            self._servo_pub.publish(msg)
+            self._publish_servo(ServoOutput(
+                position=position, profile_velocity=params.release_speed,
+                max_current=min(effort, params.max_current) if effort > 0.0
+                else params.max_current))
         move = _GripperMove(position, params.release_tolerance,
                             self._now() + params.release_timeout, Future())
         self._gripper_move = move

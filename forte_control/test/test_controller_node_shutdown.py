@@ -9,45 +9,30 @@ import signal
 import pytest
 from geometry_msgs.msg import TwistStamped
 from rclpy.action import ActionClient
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 from forte_msgs.action import Grasp
 from forte_msgs.msg import GraspState
 from forte_ros import call_in_executor
+from forte_ros.qos import COMMANDS, GRASP_STATE
 from forte_ros.testing import NodeProcess, Probe, wait_until
 
 STATUS_ABORTED = 6  # action_msgs/msg/GoalStatus (not a declared dependency of forte_control)
-RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
-
-
 CONTROLLER = 'grasp_controller_node'  # found as ros2 run finds it (forte_ros.testing)
-
-
-def check_clean_stop(process: NodeProcess, signum: int) -> None:
-    code, elapsed = process.stop(signum, timeout=15.0)
-    name = signal.Signals(signum).name
-    print(f'grasp_controller_node {name}: stopped in {elapsed:.3f} s')
-    assert code == 0, f'exit code {code}:\n{process.output}'
-    assert elapsed < 5.0, f'{elapsed:.2f} s to stop:\n{process.output}'
-    assert not process.failures(), process.output
-    assert f'{name} received: stopping' in process.output
 
 
 @pytest.mark.parametrize('signum', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
 def test_idle_controller_stops_cleanly(signum):
     with Probe('controller_shutdown_probe') as probe:
-        probe.count(GraspState, 'grasp/state', LATCHED)
+        probe.count(GraspState, 'grasp/state', GRASP_STATE)
         with NodeProcess([CONTROLLER]) as process:
             assert wait_until(lambda: probe.counts['grasp/state'] >= 5, 40.0), process.output
-            check_clean_stop(process, signum)
+            process.stop_cleanly(signum)
 
 
 def test_a_running_grasp_is_ended_before_the_process_exits():
     with Probe('controller_grasp_probe') as probe:
-        joints = probe.node.create_publisher(JointState, 'joint_states', RELIABLE)
+        joints = probe.node.create_publisher(JointState, 'joint_states', COMMANDS)
 
         def publish_joints() -> None:  # an open gripper that never closes: CLOSING lasts
             message = JointState(name=['forte_left_finger_joint', 'forte_right_finger_joint'],
@@ -58,7 +43,7 @@ def test_a_running_grasp_is_ended_before_the_process_exits():
         probe.node.create_timer(0.02, publish_joints)
         arm: list[float] = []
         probe.node.create_subscription(TwistStamped, 'arm/cmd_vel',
-                                       lambda m: arm.append(m.twist.linear.z), RELIABLE)
+                                       lambda m: arm.append(m.twist.linear.z), COMMANDS)
         client = ActionClient(probe.node, Grasp, 'grasp')
         feedback: list = []
         with NodeProcess([CONTROLLER]) as process:
@@ -71,7 +56,7 @@ def test_a_running_grasp_is_ended_before_the_process_exits():
             assert handle.accepted, process.output
             result = call_in_executor(probe.executor, handle.get_result_async)
             assert wait_until(lambda: len(feedback) >= 3, 20.0), process.output
-            check_clean_stop(process, signal.SIGINT)
+            process.stop_cleanly(signal.SIGINT)
             assert wait_until(result.done, 5.0), 'the goal got no result'
         assert result.result().status == STATUS_ABORTED
         assert result.result().result.outcome == Grasp.Result.CANCELED

@@ -30,7 +30,6 @@ from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
@@ -40,14 +39,8 @@ from forte_msgs.action import Grasp
 from forte_msgs.msg import GraspState as GraspStateMsg
 from forte_msgs.msg import ServoCommand, TactileState
 from forte_msgs.srv import ResetFault
+from forte_ros.qos import COMMANDS, DIAGNOSTICS, GRASP_STATE, TACTILE_STATE, reliable
 
-RELIABLE10 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                        reliability=ReliabilityPolicy.RELIABLE)
-RELIABLE50 = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50,
-                        reliability=ReliabilityPolicy.RELIABLE)
-LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
-                     reliability=ReliabilityPolicy.RELIABLE,
-                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
 STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED = 4, 5, 6  # action_msgs/msg/GoalStatus
 
 #: Fast grasps for tests: close at 1 rad/s from 0.7 rad to contact at 0.5 rad, lift 5 mm.
@@ -91,13 +84,15 @@ class FakeWorld(Node):
         self.stamp_offset = 0.0        # shift of the header stamps [s] (recorded data)
         self.clock_every = 1           # ticks per /clock message (the sim's clock_rate)
         self.ticks = 0
-        self.clock_pub = self.create_publisher(Clock, '/clock', RELIABLE10)
-        self.tactile_pub = self.create_publisher(TactileState, 'tactile/state', RELIABLE50)
-        self.joint_pub = self.create_publisher(JointState, 'joint_states', RELIABLE10)
-        self.wrench_pub = self.create_publisher(WrenchStamped, 'arm/wrench', RELIABLE10)
-        self.create_subscription(ServoCommand, 'gripper/command', self.on_servo, RELIABLE10)
-        self.create_subscription(TwistStamped, 'arm/cmd_vel', self.on_arm, RELIABLE10)
-        self.create_subscription(GraspStateMsg, 'grasp/state', self.states.append, LATCHED)
+        # /clock and arm/wrench are no contract topics: reliable, keep last 10 (the
+        # controller's best-effort wrench subscription accepts a reliable publisher)
+        self.clock_pub = self.create_publisher(Clock, '/clock', reliable(10))
+        self.tactile_pub = self.create_publisher(TactileState, 'tactile/state', TACTILE_STATE)
+        self.joint_pub = self.create_publisher(JointState, 'joint_states', COMMANDS)
+        self.wrench_pub = self.create_publisher(WrenchStamped, 'arm/wrench', reliable(10))
+        self.create_subscription(ServoCommand, 'gripper/command', self.on_servo, COMMANDS)
+        self.create_subscription(TwistStamped, 'arm/cmd_vel', self.on_arm, COMMANDS)
+        self.create_subscription(GraspStateMsg, 'grasp/state', self.states.append, GRASP_STATE)
         self.create_timer(TICK, self.tick)  # wall-clock timer: simulated time = ticks
 
     @property
@@ -284,7 +279,8 @@ def test_forte_grasp_lifts_with_feedback_and_latched_state(harness):
     assert harness.world.lift == pytest.approx(0.005, abs=0.003)
     # a late joiner receives the latest grasp state (transient local)
     late = []
-    harness.client_node.create_subscription(GraspStateMsg, 'grasp/state', late.append, LATCHED)
+    harness.client_node.create_subscription(GraspStateMsg, 'grasp/state', late.append,
+                                            GRASP_STATE)
     assert harness.spin_until(lambda: late)
     assert late[-1].state == GraspState.DONE and late[-1].last_outcome == Outcome.LIFTED
     assert late[-1].header.frame_id == 'forte_base_link'
@@ -526,7 +522,7 @@ def test_diagnostics_report_state_and_fault(harness):
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     received = []
     harness.client_node.create_subscription(DiagnosticArray, '/diagnostics', received.append,
-                                            RELIABLE10)
+                                            DIAGNOSTICS)
     assert harness.spin_until(lambda: received, 3.0)
     status = received[-1].status[0]
     assert 'grasp_controller' in status.name and status.level == DiagnosticStatus.OK

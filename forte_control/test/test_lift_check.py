@@ -11,6 +11,7 @@ from dataclasses import replace
 
 import pytest
 
+from forte_control import state_machine
 from forte_control.lift_check import (
     LiftCheckParams,
     LiftMonitor,
@@ -19,17 +20,7 @@ from forte_control.lift_check import (
     finger_levels,
     shear_index,
 )
-from forte_control.state_machine import (
-    ControlInputs,
-    Controller,
-    ControllerParams,
-    GraspGoal,
-    GraspState,
-    GraspStateMachine,
-    JointInput,
-    Outcome,
-    PerceptionInput,
-)
+from forte_control.state_machine import GraspState, GraspStateMachine, Outcome
 
 DT = 0.01
 EQUAL = (0.10, 0.06, 0.03, 0.10, 0.06, 0.03)       # both fingers pressed alike
@@ -210,7 +201,7 @@ class World:
     pattern and force are set by the test."""
 
     def __init__(self, lift_check: LiftCheckParams | None = None) -> None:
-        self.machine = GraspStateMachine(ControllerParams(), lift_check)
+        self.machine = GraspStateMachine(state_machine.ControllerParams(), lift_check)
         self.now = 50.0
         self.theta = 0.6
         self.block = -1.0
@@ -219,16 +210,20 @@ class World:
         self.effort = 0.05
         self.contact = (False, False)
 
-    def inputs(self) -> ControlInputs:
-        return ControlInputs(
-            perception=PerceptionInput(stamp=self.now, force=self.force, force_valid=True,
-                                       contact=self.contact, slip_active=True,
-                                       filtered=self.filtered),
-            joint=JointInput(stamp=self.now, theta=self.theta, effort=self.effort))
+    def inputs(self) -> state_machine.ControlInputs:
+        return state_machine.ControlInputs(
+            perception=state_machine.PerceptionInput(
+                stamp=self.now, force=self.force, force_valid=True, contact=self.contact,
+                slip_active=True, filtered=self.filtered),
+            joint=state_machine.JointInput(stamp=self.now, theta=self.theta,
+                                           effort=self.effort))
+
+    def start(self, controller: state_machine.Controller) -> None:
+        assert self.machine.start(state_machine.GraspGoal(controller=controller), self.now,
+                                  self.inputs())[0]
 
     def run(self, limit: float = 20.0):
-        assert self.machine.start(GraspGoal(controller=Controller.NO_SLIP), self.now,
-                                  self.inputs())[0]
+        self.start(state_machine.Controller.NO_SLIP)
         end = self.now + limit
         while self.now < end:
             self.now += DT
@@ -286,8 +281,7 @@ def test_machine_probes_by_setting_down_and_judges_the_shear_change(table_holds)
     world.contact = (True, True)
     world.force = 0.4
     world.filtered = EQUAL
-    assert world.machine.start(GraspGoal(controller=Controller.FORTE), world.now,
-                               world.inputs())[0]
+    world.start(state_machine.Controller.FORTE)
     top = 0.0
     while True:
         world.now += DT
@@ -307,7 +301,8 @@ def test_machine_probes_by_setting_down_and_judges_the_shear_change(table_holds)
 
 def test_no_probe_without_room_under_the_lift_cap():
     world = World()
-    world.machine = GraspStateMachine(replace(ControllerParams(), max_lift_distance=0.03))
+    world.machine = GraspStateMachine(replace(state_machine.ControllerParams(),
+                                              max_lift_distance=0.03))
     world.contact = (True, True)
     world.force = 0.4
     world.filtered = EQUAL

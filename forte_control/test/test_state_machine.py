@@ -103,6 +103,17 @@ class Rig:
         self.run_until(world)
         return self.history[-1]
 
+    def assert_reset_refused_until(self, refusal: str = '', **fixed) -> None:
+        """The latched fault's reset is refused (its reason containing ``refusal``) while
+        the condition persists, and accepted once the attributes ``fixed`` are set and a
+        step saw them."""
+        ok, message, _ = self.machine.reset_fault(self.now)
+        assert not ok and refusal in message
+        for name, value in fixed.items():
+            setattr(self, name, value)
+        self.tick()
+        assert self.machine.reset_fault(self.now)[0]
+
 
 def test_constants_equal_messages():
     from forte_msgs.action import Grasp
@@ -522,11 +533,7 @@ def test_missing_data_refuses_start_and_reset_refused_while_stale():
     assert rig.machine.state == GraspState.CLOSING  # 50 ms old: still fresh
     out = rig.tick(0.06)
     assert out.state == GraspState.FAULT and out.fault_flags == FaultFlag.STALE_PERCEPTION
-    ok, message, _ = rig.machine.reset_fault(rig.now)
-    assert not ok and 'STALE_PERCEPTION' in message
-    rig.send_perception = True
-    rig.tick()
-    assert rig.machine.reset_fault(rig.now)[0]
+    rig.assert_reset_refused_until('STALE_PERCEPTION', send_perception=True)
 
 
 def test_nan_stamp_is_stale():
@@ -550,10 +557,7 @@ def test_invalid_data_holds_then_faults():
     assert out.servo.position == held
     out = rig.run_until(lambda o: o.state != GraspState.CLOSING, limit=1.0)
     assert out.state == GraspState.FAULT and out.fault_flags == FaultFlag.INVALID_INPUT
-    assert not rig.machine.reset_fault(rig.now)[0]
-    rig.data_valid = True
-    rig.tick()
-    assert rig.machine.reset_fault(rig.now)[0]
+    rig.assert_reset_refused_until(data_valid=True)
 
 
 def test_servo_error_faults():
@@ -562,10 +566,7 @@ def test_servo_error_faults():
     rig.servo_error = True
     out = rig.tick()
     assert out.state == GraspState.FAULT and out.fault_flags == FaultFlag.SERVO
-    assert not rig.machine.reset_fault(rig.now)[0]
-    rig.servo_error = False
-    rig.tick()
-    assert rig.machine.reset_fault(rig.now)[0]
+    rig.assert_reset_refused_until(servo_error=False)
 
 
 def test_lift_cap_fault_when_steps_are_too_far_apart():

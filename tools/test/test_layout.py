@@ -39,6 +39,8 @@ ROS_IMPORTS = re.compile(r'^(rclpy|launch|launch_ros|rosidl_\w+|rcl_interfaces|\
 ROS_SHELL_PARTS = {
     'forte_driver/forte_driver/serial/serial_sensor_parameters.py':
         'the serial sensor node\'s ROS parameter declarations and their validation',
+    'forte_driver/forte_driver/dynamixel/gripper_driver_parameters.py':
+        'the gripper driver node\'s ROS parameter declarations (one table)',
     'forte_control/forte_control/node_parameters.py':
         'the controller node\'s ROS parameter declarations, from the core\'s ranges',
     'forte_control/forte_control/gripper_command.py':

@@ -1,0 +1,401 @@
+"""The phases of a grasp: one handler per active state of :class:`GraspStateMachine`.
+
+:class:`GraspPhases` is the base class of :class:`~.machine.GraspStateMachine`: the handler
+of each active state (:attr:`GraspPhases._PHASES`: CLOSING, LOADING, LIFTING, HOLDING,
+RELEASING), what they share (slip reaction, drop detection and lift evidence while the
+object is up, the set-down probe and the verdict of the lift), and the state changes and
+servo commands they make. The machine runs a handler only after the safety checks of the
+step passed. Pure Python, no rclpy.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+from forte_control.lift_check import DropDetector, LiftMonitor, closed_on_object_evidence
+from forte_control.state_machine.controller_params import ControllerParams
+from forte_control.state_machine.progress import GraspProgress, LatestInputs
+from forte_control.state_machine.safety import flag_names, fresh
+from forte_control.state_machine.types import (
+    Controller,
+    FaultFlag,
+    GraspState,
+    Outcome,
+    PerceptionInput,
+    ServoOutput,
+)
+
+__all__ = ['GraspPhases']
+
+#: Set-down probe: time constant of the approach to the end point [s], and the distance
+#: from it at which the probe counts as arrived [m].
+_PROBE_APPROACH = 0.2
+_PROBE_END = 1e-5
+
+
+class GraspPhases:
+    """The handlers of the active states and the state changes they make.
+
+    A handler is called as ``handler(machine, now, perception, valid)`` (``valid``: the
+    perception may be acted on in this step) and returns True if it commanded a slip
+    tightening. The attributes are those of :class:`~.machine.GraspStateMachine`, which
+    sets them up.
+    """
+
+    _params: ControllerParams               # node-level parameters
+    _state: GraspState
+    _controller: Controller                 # controller of the current / last grasp
+    _grasp: GraspProgress | None            # the grasp in progress (or the last one)
+    _fault_flags: FaultFlag                 # latched faults
+    _last_outcome: Outcome
+    _servo: ServoOutput | None              # the servo command (None: never commanded)
+    _arm_velocity: float                    # vertical arm velocity commanded [m/s]
+    _latest: LatestInputs
+    _message: str
+    _finished_pending: bool                 # the grasp reached its outcome in this step
+
+    # -- one handler per active state --------------------------------------------------------
+    def _closing(self, now: float, perception: PerceptionInput | None, valid: bool) -> bool:
+        """CLOSING: ramp towards closed until contact, or closed fully without one."""
+        grasp = self._grasp
+        joint = self._latest.joint
+        assert grasp is not None and joint is not None
+        p = grasp.params
+        if self._controller == Controller.ON_OFF:
+            return self._closing_without_sensing(now)
+        if valid and self._contact(perception):
+            assert perception is not None
+            grasp.contact_force = perception.force if perception.force_valid else None
+            self._enter(GraspState.LOADING, now)
+            self._update_target(perception)
+            self._message = (f'contact at {grasp.ramp_start_angle:.3f} rad, loading to '
+                             f'{grasp.target_force:.3f} N')
+            return self._loading(now, perception, valid)
+        if not valid:
+            # hold the command until the data is valid again (never act on bad data)
+            self._hold_ramp(now)
+            return False
+        command = self._ramp(now, p.closing_speed, p.min_angle)
+        self._command(command, p.closing_speed)
+        if joint.effort is not None and math.isfinite(joint.effort):
+            grasp.free_current = joint.effort if grasp.free_current is None \
+                else min(grasp.free_current, joint.effort)
+        if self._settled(now, command, p.min_angle, p.no_contact_settle):
+            self._finish_closed(command, perception)
+        return False
+
+    def _closing_without_sensing(self, now: float) -> bool:
+        """CLOSING of ON_OFF: to theta = 0 at constant speed, wait on_off_settle, lift."""
+        assert self._grasp is not None
+        p = self._grasp.params
+        command = self._ramp(now, p.on_off_closing_speed, 0.0)
+        self._command(command, p.on_off_closing_speed)
+        if self._settled(now, command, 0.0, p.on_off_settle):
+            self._enter_lifting(now, 'ON_OFF: closed fully, lifting')
+        return False
+
+    def _loading(self, now: float, perception: PerceptionInput | None, valid: bool) -> bool:
+        """LOADING: ramp on at loading_speed until the force target, then LIFTING."""
+        grasp = self._grasp
+        assert grasp is not None
+        if not valid:
+            self._hold_ramp(now)
+            return False
+        assert perception is not None
+        p = grasp.params
+        if not perception.force_valid or not math.isfinite(perception.force):
+            if grasp.force_invalid_since is None:
+                grasp.force_invalid_since = now
+            if now - grasp.force_invalid_since > p.invalid_force_timeout:
+                self._fault(FaultFlag.INVALID_INPUT, 'no valid force estimate for '
+                            f'{p.invalid_force_timeout:g} s while loading')
+            else:
+                self._hold_ramp(now)
+            return False
+        grasp.force_invalid_since = None
+        if grasp.contact_force is None and p.initial_force_mode == 'relative':
+            grasp.contact_force = perception.force
+            self._update_target(perception)
+        if perception.force >= grasp.target_force:
+            self._enter_lifting(now, f'loaded {perception.force:.3f} N (target '
+                                f'{grasp.target_force:.3f} N), lifting')
+            return False
+        command = self._ramp(now, p.loading_speed, p.min_angle)
+        self._command(command, p.loading_speed)
+        if command <= p.min_angle:
+            self._enter_lifting(now, f'closed fully at {perception.force:.3f} N before the '
+                                f'target {grasp.target_force:.3f} N, lifting')
+        return False
+
+    def _lifting(self, now: float, perception: PerceptionInput | None, valid: bool) -> bool:
+        """LIFTING: the grip watched (:meth:`_watch_grip`), the arm up to the lift height."""
+        reacted, ended = self._watch_grip(now, perception, valid)
+        if not ended:
+            self._lift_arm(now)
+        return reacted
+
+    def _holding(self, now: float, perception: PerceptionInput | None, valid: bool) -> bool:
+        """HOLDING: the grip watched (:meth:`_watch_grip`), the hold and its verdict."""
+        reacted, ended = self._watch_grip(now, perception, valid)
+        if not ended:
+            self._hold(now)
+        return reacted
+
+    def _releasing(self, now: float, perception: PerceptionInput | None, valid: bool) -> bool:
+        """RELEASING: open to open_angle; DONE when there or after release_timeout."""
+        grasp = self._grasp
+        joint = self._latest.joint
+        assert grasp is not None and joint is not None
+        p = grasp.params
+        self._arm_velocity = 0.0
+        self._command(p.open_angle, p.release_speed)
+        if joint.theta >= p.open_angle - p.release_tolerance \
+                or now - grasp.phase_start >= p.release_timeout:
+            self._state = GraspState.DONE
+            self._finished_pending = True
+            self._message = 'released'
+        return False
+
+    #: The handler of each active state.
+    _PHASES: dict[GraspState, Callable[[GraspPhases, float, PerceptionInput | None,
+                                        bool], bool]] = {
+        GraspState.CLOSING: _closing,
+        GraspState.LOADING: _loading,
+        GraspState.LIFTING: _lifting,
+        GraspState.HOLDING: _holding,
+        GraspState.RELEASING: _releasing,
+    }
+
+    # -- what the handlers share -----------------------------------------------------------
+    def _watch_grip(self, now: float, perception: PerceptionInput | None, valid: bool
+                    ) -> tuple[bool, bool]:
+        """LIFTING / HOLDING: slip reaction, drop detection, lift evidence.
+
+        Returns ``(tightened, ended)``: a slip tightening was commanded; the grasp ended in
+        this step (tightening cap or drop).
+        """
+        grasp = self._grasp
+        assert grasp is not None
+        state = self._state
+        reacted = self._tighten_on_slip(now, perception, valid)
+        if self._state == GraspState.FAULT:  # the tightening cap
+            return False, True
+        if not valid:
+            return reacted, False
+        assert perception is not None
+        if grasp.drop is not None and grasp.drop.update(perception, now):
+            self._finish(Outcome.DROPPED, f'dropped in {state.name}: {grasp.drop.reason}')
+            return reacted, True
+        if grasp.lift is not None:
+            grasp.lift.update(perception.stamp, perception.filtered,
+                              perception.slip and perception.slip_active,
+                              state == GraspState.HOLDING, self._latest.wrench, now)
+        return reacted, False
+
+    def _tighten_on_slip(self, now: float, perception: PerceptionInput | None,
+                         valid: bool) -> bool:
+        """FORTE: a new slip flag outside the refractory time tightens by slip_increment
+        (a fault if that would exceed max_tightening); True if it tightened."""
+        grasp = self._grasp
+        assert grasp is not None
+        if not (self._controller == Controller.FORTE and valid and perception is not None
+                and perception.slip and perception.slip_active
+                and perception.stamp > grasp.last_slip_stamp):
+            return False
+        p = grasp.params
+        grasp.last_slip_stamp = perception.stamp
+        if now - grasp.last_tightening_time < p.slip_refractory:
+            return False
+        if grasp.tightening + p.slip_increment > p.max_tightening + 1e-12:
+            self._fault(FaultFlag.TIGHTENING_LIMIT, 'slip tightening would exceed the '
+                        f'cap {p.max_tightening:.4f} rad')
+            return False
+        assert self._servo is not None
+        position = max(p.min_angle, self._servo.position - p.slip_increment)
+        grasp.tightening += self._servo.position - position
+        grasp.slip_events += 1
+        grasp.last_tightening_time = now
+        self._command(position, p.slip_speed)
+        self._message = f'slip {grasp.slip_events}: tightened to {position:.4f} rad'
+        return True
+
+    def _hold(self, now: float) -> None:
+        """HOLDING: arm still for hold_duration, then the set-down probe, then the verdict."""
+        grasp = self._grasp
+        assert grasp is not None and grasp.lift is not None
+        p = grasp.params
+        probe = grasp.lift_target - p.lift_distance
+        if not grasp.probe_phase:
+            self._arm_velocity = 0.0
+            if now - grasp.phase_start < p.hold_duration:
+                return
+            if probe <= 0.0:
+                self._judge_lift(now)
+                return
+            grasp.probe_phase = 'down'
+            grasp.lift.begin_probe()
+            self._message = f'set-down probe: lowering {probe * 1000:.1f} mm'
+        if grasp.probe_phase == 'down':
+            remaining = grasp.lift_height - p.lift_distance
+            if remaining > _PROBE_END:
+                # slow down exponentially into the end point: stopping a downward motion
+                # accelerates the object upward, and a carried object's friction must carry
+                # m x that acceleration on top of its weight
+                self._arm_velocity = -min(p.lift_speed, remaining / _PROBE_APPROACH)
+                return
+            grasp.probe_phase = 'settle'
+            grasp.probe_since = now
+        self._arm_velocity = 0.0
+        if now - grasp.probe_since >= grasp.lift_check.probe_settle:
+            self._judge_lift(now)
+
+    def _lift_arm(self, now: float) -> None:
+        """Arm command while LIFTING: on up to the lift height, then HOLDING."""
+        grasp = self._grasp
+        assert grasp is not None
+        p = grasp.params
+        if grasp.lift_height >= grasp.lift_target - 1e-12:
+            self._arm_velocity = 0.0
+            self._enter(GraspState.HOLDING, now)
+            self._message = f'lifted {grasp.lift_height:.4f} m, holding'
+        else:
+            self._arm_velocity = p.lift_speed
+
+    def _judge_lift(self, now: float) -> None:
+        """End of the hold: LIFTED (or RELEASING) if the object is carried, else NOT_CARRIED."""
+        grasp = self._grasp
+        assert grasp is not None and grasp.lift is not None
+        p = grasp.params
+        verdict = grasp.lift.verdict()
+        evidence = f': {verdict.reason}'
+        if not verdict.carried:
+            self._finish(Outcome.NOT_CARRIED, f'lift of {grasp.lift_height:.4f} m commanded, '
+                         f'object not carried: {verdict.reason}')
+        elif grasp.goal.release_after:
+            grasp.outcome = Outcome.LIFTED
+            self._last_outcome = Outcome.LIFTED
+            self._arm_velocity = 0.0
+            self._enter(GraspState.RELEASING, now)
+            self._command(p.open_angle, p.release_speed)
+            self._message = 'lifted and held; releasing' + evidence
+        else:
+            self._finish(Outcome.LIFTED, f'lifted {grasp.lift_height:.4f} m and held '
+                         f'{p.hold_duration:g} s{evidence}')
+
+    def _settled(self, now: float, command: float, floor: float, settle: float) -> bool:
+        """True once the closing command has stayed at ``floor`` for ``settle`` seconds."""
+        grasp = self._grasp
+        assert grasp is not None
+        if command <= floor:
+            if grasp.at_min_since is None:
+                grasp.at_min_since = now
+            return now - grasp.at_min_since >= settle
+        return False
+
+    def _hold_ramp(self, now: float) -> None:
+        """Freeze the ramp at the current command (restarts from there later)."""
+        grasp = self._grasp
+        assert grasp is not None
+        if self._servo is not None:
+            grasp.ramp_start_angle = self._servo.position
+        grasp.phase_start = now
+
+    def _contact(self, perception: PerceptionInput | None) -> bool:
+        if perception is None:
+            return False
+        left, right = perception.contact
+        if self._grasp is not None and self._grasp.params.contact_mode == 'both':
+            return bool(left and right)
+        return bool(left or right)
+
+    def _update_target(self, perception: PerceptionInput) -> None:
+        grasp = self._grasp
+        assert grasp is not None
+        p = grasp.params
+        if p.initial_force_mode == 'absolute':
+            grasp.target_force = p.initial_force
+        elif grasp.contact_force is not None:
+            grasp.target_force = grasp.contact_force + p.initial_force
+        else:
+            grasp.target_force = math.nan  # unknown until a valid force arrives
+
+    def _enter_lifting(self, now: float, message: str) -> None:
+        grasp = self._grasp
+        assert grasp is not None
+        self._enter(GraspState.LIFTING, now)
+        grasp.drop = DropDetector(grasp.params)
+        grasp.lift = LiftMonitor(grasp.lift_check)
+        probe = grasp.lift_check.probe_distance if grasp.lift_check.verify_lift else 0.0
+        if grasp.params.lift_distance + probe > grasp.params.max_lift_distance:
+            probe = 0.0  # no room under the lift cap: judged without the probe
+        grasp.lift_target = grasp.params.lift_distance + probe
+        perception = self._latest.perception
+        if perception is not None and perception.data_valid \
+                and fresh(perception.stamp, now, grasp.params.perception_timeout):
+            grasp.drop.update(perception, now)  # references from the grip at lift start
+        self._arm_velocity = grasp.params.lift_speed
+        self._message = message
+
+    def _finish_closed(self, command: float, perception: PerceptionInput | None) -> None:
+        """Closed fully without a contact flag: NO_CONTACT, or CLOSED_ON_OBJECT on evidence."""
+        grasp = self._grasp
+        joint = self._latest.joint
+        assert grasp is not None and joint is not None
+        filtered = force = None
+        if perception is not None and perception.data_valid:
+            filtered = perception.filtered
+            if perception.force_valid:
+                force = perception.force
+        evidence = closed_on_object_evidence(grasp.lift_check, command, joint.theta, filtered,
+                                             force, joint.effort, grasp.free_current)
+        if evidence:
+            self._finish(Outcome.CLOSED_ON_OBJECT, 'closed fully without a contact flag, '
+                         f'but on something (possibly squeezed): {evidence}')
+        else:
+            self._finish(Outcome.NO_CONTACT, 'closed fully without contact')
+
+    # -- state changes and commands --------------------------------------------------------
+    def _fault(self, flags: FaultFlag, message: str, outcome: Outcome = Outcome.FAULT) -> None:
+        """Latch ``flags``: arm stopped, gripper held, FAULT; the grasp's outcome unless it
+        had one already."""
+        self._fault_flags |= flags
+        self._halt(GraspState.FAULT, f'FAULT {flag_names(flags)}: {message}')
+        if self._grasp is not None and self._grasp.outcome == Outcome.NONE:
+            self._record_outcome(outcome)
+
+    def _finish(self, outcome: Outcome, message: str) -> None:
+        """End the grasp with ``outcome``: arm stopped, gripper held, DONE."""
+        self._halt(GraspState.DONE, message)
+        self._record_outcome(outcome)
+
+    def _halt(self, state: GraspState, message: str) -> None:
+        """Stop the arm and go to ``state`` (DONE or FAULT) with ``message``."""
+        self._arm_velocity = 0.0
+        self._state = state
+        self._message = message
+
+    def _record_outcome(self, outcome: Outcome) -> None:
+        """The grasp reached ``outcome`` in this step."""
+        grasp = self._grasp
+        assert grasp is not None
+        grasp.outcome = outcome
+        self._last_outcome = outcome
+        self._finished_pending = True
+
+    def _enter(self, state: GraspState, now: float) -> None:
+        grasp = self._grasp
+        assert grasp is not None
+        self._state = state
+        grasp.phase_start = now
+        if self._servo is not None:
+            grasp.ramp_start_angle = self._servo.position
+
+    def _command(self, position: float, speed: float) -> None:
+        params = self._grasp.params if self._grasp is not None else self._params
+        self._servo = ServoOutput(position=float(position), max_current=params.max_current,
+                                  profile_velocity=float(speed))
+
+    def _ramp(self, now: float, speed: float, floor: float) -> float:
+        grasp = self._grasp
+        assert grasp is not None
+        return max(floor, grasp.ramp_start_angle - speed * (now - grasp.phase_start))

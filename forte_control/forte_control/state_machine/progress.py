@@ -1,0 +1,69 @@
+"""Bookkeeping of the state machine: the grasp in progress and the latest inputs (no rclpy)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from forte_control.lift_check import DropDetector, LiftCheckParams, LiftMonitor, WrenchInput
+from forte_control.state_machine.controller_params import ControllerParams
+from forte_control.state_machine.types import (
+    ControlInputs,
+    GraspGoal,
+    JointInput,
+    Outcome,
+    PerceptionInput,
+)
+
+__all__ = ['GraspProgress', 'LatestInputs']
+
+
+@dataclass
+class GraspProgress:
+    """Bookkeeping of the grasp in progress."""
+
+    goal: GraspGoal
+    params: ControllerParams           # effective parameters (node params + goal overrides)
+    lift_check: LiftCheckParams        # lift verification thresholds when the goal started
+    start_time: float
+    phase_start: float
+    ramp_start_angle: float = 0.0      # command at the start of the current ramp [rad]
+    contact_force: float | None = None
+    target_force: float = 0.0
+    force_invalid_since: float | None = None
+    over_force_since: float | None = None
+    at_min_since: float | None = None
+    last_tightening_time: float = -math.inf
+    last_slip_stamp: float = -math.inf
+    drop: DropDetector | None = None
+    lift: LiftMonitor | None = None
+    lift_target: float = 0.0           # lift_distance, plus the set-down probe if any [m]
+    probe_phase: str = ''              # '', 'down' (lowering), 'settle'
+    probe_since: float = 0.0           # start of the probe's settle [s]
+    free_current: float | None = None  # lowest servo current while closing [A]
+    slip_events: int = 0
+    tightening: float = 0.0
+    lift_height: float = 0.0
+    outcome: Outcome = Outcome.NONE
+
+
+@dataclass
+class LatestInputs:
+    """The newest input of each kind received so far (``None`` = never received)."""
+
+    perception: PerceptionInput | None = None
+    joint: JointInput | None = None
+    wrench: WrenchInput | None = None
+    invalid_since: float | None = None  # perception data_valid false since [s]
+
+    def remember(self, inputs: ControlInputs, now: float) -> None:
+        """Keep the inputs given (``None`` fields leave the previous ones) at time ``now``."""
+        if inputs.perception is not None:
+            self.perception = inputs.perception
+            if inputs.perception.data_valid:
+                self.invalid_since = None
+            elif self.invalid_since is None:
+                self.invalid_since = now
+        if inputs.joint is not None:
+            self.joint = inputs.joint
+        if inputs.wrench is not None:
+            self.wrench = inputs.wrench
