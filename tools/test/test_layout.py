@@ -43,6 +43,8 @@ ROS_SHELL_PARTS = {
         'the gripper driver node\'s ROS parameter declarations (one table)',
     'forte_control/forte_control/node_parameters.py':
         'the controller node\'s ROS parameter declarations, from the core\'s ranges',
+    'forte_control/forte_control/grasp_messages.py':
+        'the controller node\'s conversions between forte_msgs and the state machine',
     'forte_control/forte_control/gripper_command.py':
         'the controller node\'s control_msgs/GripperCommand action server (a node mixin)',
 }
