@@ -37,7 +37,8 @@ ROSDEP_KEYS: dict[str, str] = {
     'sklearn': 'python3-sklearn',  # scikit-learn
     'yaml': 'python3-yaml',  # PyYAML
     **{name: name for name in (
-        'control_msgs', 'diagnostic_msgs', 'dynamixel_sdk', 'geometry_msgs', 'launch',
+        'builtin_interfaces', 'control_msgs', 'diagnostic_msgs', 'dynamixel_sdk', 'geometry_msgs',
+        'launch',
         'launch_pytest', 'launch_ros', 'lifecycle_msgs', 'rcl_interfaces', 'rclpy',
         'ros2action', 'ros2cli', 'ros2launch', 'ros2lifecycle', 'ros2topic',
         'rosgraph_msgs', 'sensor_msgs', 'std_msgs', 'std_srvs', *PACKAGES)},

@@ -16,10 +16,8 @@ Main pieces
 - :class:`FrameDecoder`: resynchronising stream decoder of binary frames, counts corrupt
   frames and discarded bytes, emits :data:`CORRUPT` markers in stream order.
 - :class:`AsciiLineDecoder`: strict parser of the paper authors' ASCII lines.
-- :class:`SequenceTracker`, :class:`StreamAssembler`, :class:`Batch`: defined in
-  :mod:`forte_driver.serial.stream` (plausibility, duplicates, reordering, drops, gap-free
-  batches) and re-exported here, so ``from forte_driver.serial.protocol import StreamAssembler``
-  keeps working.
+- What is published of the decoded frames (plausibility, duplicates, reordering, drops,
+  gap-free batches) is :mod:`forte_driver.serial.stream`'s.
 - Encoders for every frame type (used by the emulated device and the tests).
 """
 from __future__ import annotations
@@ -470,16 +468,3 @@ def normalise_adc_code(code: int, zero_code: int, half_span_code: int) -> tuple[
     if value < -COUNTS_PER_FULL_SCALE:
         return -COUNTS_PER_FULL_SCALE, True
     return value, False
-
-
-#: Names defined in :mod:`forte_driver.serial.stream` and re-exported here (imported lazily:
-#: ``stream`` imports this module).
-_STREAM_NAMES = ('Batch', 'SequenceEvent', 'SequenceTracker', 'StreamAssembler')
-
-
-def __getattr__(name: str):
-    """Re-export the stream accounting classes of :mod:`forte_driver.serial.stream`."""
-    if name in _STREAM_NAMES:
-        from forte_driver.serial import stream
-        return getattr(stream, name)
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')

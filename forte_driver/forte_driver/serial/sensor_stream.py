@@ -2,7 +2,7 @@
 
 Used by the reader thread of :mod:`forte_driver.serial.serial_sensor_node`: one
 :class:`SensorStream` per configured node holds the decoder (binary protocol v1 or legacy
-ASCII lines), the :class:`~forte_driver.serial.protocol.StreamAssembler` (batches, drop /
+ASCII lines), the :class:`~forte_driver.serial.stream.StreamAssembler` (batches, drop /
 corruption / plausibility accounting) and the :class:`~forte_driver.serial.clock_sync.ClockSync`
 (device clock -> host time), and pairs every completed batch with its stamp.
 
@@ -31,13 +31,12 @@ from forte_driver.serial.clock_sync import ClockSync, is_valid_host_time
 from forte_driver.serial.protocol import (
     AsciiLineDecoder,
     AsciiSample,
-    Batch,
     CorruptFrame,
     FrameDecoder,
     Sample,
-    StreamAssembler,
 )
 from forte_driver.serial.reader_health import ReaderHealth
+from forte_driver.serial.stream import Batch, StreamAssembler
 
 #: The protocol's device time counter wraps at this value [us].
 DEVICE_TIME_MODULUS = 1 << 64

@@ -20,9 +20,9 @@ from forte_driver.serial.protocol import (
     FrameDecoder,
     Info,
     Sample,
-    SequenceTracker,
     Status,
 )
+from forte_driver.serial.stream import SequenceTracker
 
 
 @pytest.fixture

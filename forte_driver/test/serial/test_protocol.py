@@ -17,9 +17,8 @@ from forte_driver.serial.protocol import (
     FrameDecoder,
     Info,
     Sample,
-    SequenceTracker,
-    StreamAssembler,
 )
+from forte_driver.serial.stream import SequenceTracker, StreamAssembler
 
 VECTORS = Path(__file__).resolve().parents[3] / 'firmware' / 'test_vectors'
 

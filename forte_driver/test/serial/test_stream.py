@@ -11,15 +11,8 @@ import random
 import numpy as np
 import pytest
 
-from forte_driver.serial.protocol import (
-    FLAG_OVERRUN,
-    FLAG_SATURATED,
-    FLAG_SESSION_START,
-    Sample,
-    SequenceTracker,
-    StreamAssembler,
-)
-from forte_driver.serial.stream import SequenceEvent
+from forte_driver.serial.protocol import FLAG_OVERRUN, FLAG_SATURATED, FLAG_SESSION_START, Sample
+from forte_driver.serial.stream import SequenceEvent, SequenceTracker, StreamAssembler
 
 PERIOD = 500
 BASE_TIME = 1_000_000_000  # a multiple of the period [us]
