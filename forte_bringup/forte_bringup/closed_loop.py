@@ -24,7 +24,7 @@ One trial:
    drop). ``max_duration`` bounds a trial in any case.
 
 The force model (needed by FORTE and NO_SLIP) is the simulated rig's, trained once and cached
-(:func:`forte_bringup.sim_force_model.default_force_model`, also importable from here).
+(:func:`forte_bringup.sim_force_model.default_force_model`).
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from forte_bringup.sim_force_model import default_force_model, train_force_model
+from forte_bringup.sim_force_model import default_force_model
 from forte_control.state_machine import (
     ACTIVE_STATES,
     ControlInputs,
@@ -48,8 +48,7 @@ from forte_control.state_machine import (
     perception_input,
 )
 
-__all__ = ['OBJECT_STATE_NAMES', 'TrialResult', 'default_force_model', 'run_trial',
-           'train_force_model']
+__all__ = ['OBJECT_STATE_NAMES', 'TrialResult', 'run_trial']
 
 #: SimGroundTruth object_state constant -> name.
 OBJECT_STATE_NAMES = {0: 'NONE', 1: 'RESTING', 2: 'HELD', 3: 'DROPPED', 4: 'BROKEN',

@@ -31,10 +31,9 @@ from rclpy.action import ActionClient
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
-from forte_ros import call_in_executor
+from forte_ros import call_in_executor, qos
 
 #: Topics :class:`Watcher` counts (``tared``: tactile states that are tared and valid).
 COUNTED = ('tactile/frames', 'tactile/state', 'joint_states', 'grasp/state', 'tared')
@@ -88,18 +87,15 @@ class Watcher(Node):
         #: Latest ``sim/ground_truth`` (forte_msgs/SimGroundTruth) of the simulated scene.
         self.truth = None
         self.joint_positions: list[float] = []
-        best_effort = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
         self.create_subscription(TactileFrames, 'tactile/frames',
-                                 lambda _: self._count('tactile/frames'), best_effort)
+                                 lambda _: self._count('tactile/frames'), qos.SENSOR_FRAMES)
         self.create_subscription(TactileState, 'tactile/state', self._on_state,
-                                 QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE))
-        self.create_subscription(JointState, 'joint_states', self._on_joint_state,
-                                 QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
+                                 qos.TACTILE_STATE)
+        self.create_subscription(JointState, 'joint_states', self._on_joint_state, qos.COMMANDS)
         self.create_subscription(GraspState, 'grasp/state', self._on_grasp_state,
-                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                                            durability=DurabilityPolicy.TRANSIENT_LOCAL))
+                                 qos.GRASP_STATE)
         self.create_subscription(SimGroundTruth, 'sim/ground_truth', self._on_truth,
-                                 QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE))
+                                 qos.GROUND_TRUTH)
 
     # -- counting ---------------------------------------------------------------------------
     def _count(self, topic: str) -> None:

@@ -15,26 +15,26 @@ import signal
 
 import pytest
 from lifecycle_msgs.msg import Transition
-from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 
 from forte_driver.bench_devices.emulated_sensor import EmulatedSensor
 from forte_driver.bench_devices.simulated_servo import SimulatedServoProcess
 from forte_driver.serial.protocol import Command
 from forte_msgs.msg import TactileFrames
+from forte_ros.qos import COMMANDS
 from forte_ros.testing import NodeProcess, Probe, ros_args, wait_until
 
 STOP_TIMEOUT = 5.0  # [s] from the signal to the exit
 SIGNALS = pytest.mark.parametrize('signum', [signal.SIGINT, signal.SIGTERM],
                                   ids=['SIGINT', 'SIGTERM'])
-RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 
 
 @pytest.fixture
 def probe():
     with Probe('driver_shutdown_probe') as started:
         started.count(TactileFrames, 'tactile/frames', qos_profile_sensor_data)
-        started.count(JointState, 'joint_states', RELIABLE)
+        started.count(JointState, 'joint_states', COMMANDS)
         yield started
 
 

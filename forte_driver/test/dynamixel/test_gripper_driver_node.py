@@ -12,7 +12,6 @@ from lifecycle_msgs.msg import State, Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 from forte_driver.bench_devices.simulated_servo import SimulatedServoProcess
@@ -20,10 +19,9 @@ from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import protocol as proto
 from forte_driver.dynamixel.gripper_driver_node import GripperDriverNode
 from forte_msgs.msg import ServoCommand
+from forte_ros.qos import COMMANDS, DIAGNOSTICS
 from forte_ros.testing import wait_until
 
-RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                      reliability=ReliabilityPolicy.RELIABLE)
 PULSE = 2.0 * math.pi / 4096.0
 
 
@@ -46,10 +44,10 @@ class Harness:
         self.joint_states: list[JointState] = []
         self.diagnostics: list[DiagnosticArray] = []
         self.probe.create_subscription(JointState, 'joint_states', self.joint_states.append,
-                                       RELIABLE)
+                                       COMMANDS)
         self.probe.create_subscription(DiagnosticArray, '/diagnostics',
-                                       self.diagnostics.append, RELIABLE)
-        self.commands = self.probe.create_publisher(ServoCommand, 'gripper/command', RELIABLE)
+                                       self.diagnostics.append, DIAGNOSTICS)
+        self.commands = self.probe.create_publisher(ServoCommand, 'gripper/command', COMMANDS)
         self.change_state = self.probe.create_client(ChangeState, 'gripper_driver/change_state')
         self.get_state = self.probe.create_client(GetState, 'gripper_driver/get_state')
         self.executor = SingleThreadedExecutor(context=self.context)
