@@ -40,7 +40,8 @@ The package, one module per concern:
   the table of :mod:`forte_control.parameters`).
 - :mod:`.safety`: freshness, validity, force, lift and time caps checked on every step.
 - :mod:`.progress`: bookkeeping of the grasp in progress and of the latest inputs.
-- :mod:`.machine`: :class:`GraspStateMachine`, one handler per active state.
+- :mod:`.phases`: one handler per active state, chosen from a table by the state.
+- :mod:`.machine`: :class:`GraspStateMachine`: start, cancel, fault reset, step.
 
 The lift verification and drop detection it relies on are :mod:`forte_control.lift_check`.
 Every name below is importable from ``forte_control.state_machine``.
@@ -51,15 +52,6 @@ from __future__ import annotations
 from forte_control.lift_check import DropDetector as DropDetector
 from forte_control.lift_check import LiftCheckParams as LiftCheckParams
 from forte_control.lift_check import WrenchInput as WrenchInput
-from forte_control.parameters import HARD_MAX_ANGLE as HARD_MAX_ANGLE
-from forte_control.parameters import HARD_MAX_CURRENT as HARD_MAX_CURRENT
-from forte_control.parameters import HARD_MAX_FORCE as HARD_MAX_FORCE
-from forte_control.parameters import HARD_MAX_FRESHNESS as HARD_MAX_FRESHNESS
-from forte_control.parameters import HARD_MAX_LIFT_DISTANCE as HARD_MAX_LIFT_DISTANCE
-from forte_control.parameters import HARD_MAX_LIFT_SPEED as HARD_MAX_LIFT_SPEED
-from forte_control.parameters import HARD_MAX_SERVO_SPEED as HARD_MAX_SERVO_SPEED
-from forte_control.parameters import HARD_MAX_SLIP_INCREMENT as HARD_MAX_SLIP_INCREMENT
-from forte_control.parameters import HARD_MAX_TIGHTENING as HARD_MAX_TIGHTENING
 from forte_control.state_machine.controller_params import ControllerParams as ControllerParams
 from forte_control.state_machine.machine import GraspStateMachine as GraspStateMachine
 from forte_control.state_machine.types import ACTIVE_STATES as ACTIVE_STATES
