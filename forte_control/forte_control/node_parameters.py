@@ -11,8 +11,6 @@ from __future__ import annotations
 from dataclasses import fields
 
 from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
     ParameterDescriptor,
     ParameterType,
 )
@@ -28,6 +26,7 @@ from forte_control.parameters import (
     ParameterSpec,
 )
 from forte_control.state_machine import ControllerParams
+from forte_ros.parameters import with_range
 
 #: Names of the ControllerParams fields, in field order.
 CONTROLLER_FIELDS = [item.name for item in fields(ControllerParams)]
@@ -63,12 +62,7 @@ def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
     if spec.choices:
         result.additional_constraints = f'one of {spec.range_text()}'
     elif spec.low is not None and spec.high is not None:
-        if spec.kind is int:
-            result.integer_range = [IntegerRange(from_value=int(spec.low),
-                                                 to_value=int(spec.high), step=1)]
-        else:
-            result.floating_point_range = [FloatingPointRange(
-                from_value=float(spec.low), to_value=float(spec.high), step=0.0)]
+        with_range(result, spec.low, spec.high, integer=spec.kind is int)
     return result
 
 

@@ -1,4 +1,5 @@
-"""forte_ros.qos against docs/contracts.md's table; diagnostics and the test graph for real.
+"""forte_ros.qos against docs/contracts.md's table; descriptors, diagnostics and the test
+graph for real.
 
 The QoS test reads the contract's table itself (the topic rows and their QoS column), so a
 profile that drifts from the document fails here, whichever side changed.
@@ -15,6 +16,7 @@ from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 from std_msgs.msg import String
 
 from forte_ros import diagnostics, qos
+from forte_ros.parameters import parameter_descriptor, with_range
 from forte_ros.testing import SpinningGraph, wait_until
 
 CONTRACTS = Path(__file__).resolve().parents[2] / 'docs' / 'contracts.md'
@@ -83,3 +85,22 @@ def test_spinning_graph_delivers_real_messages_and_closes():
     assert all(isinstance(arrival, float) for arrival, _ in stamped)
     graph.close()
     assert not graph.context.ok()
+
+
+def test_descriptor_range_follows_the_default_type():
+    integer = parameter_descriptor('samples per message', 20, (1, 2000), read_only=True)
+    assert integer.read_only and integer.description == 'samples per message'
+    assert [(r.from_value, r.to_value, r.step) for r in integer.integer_range] == [(1, 2000, 1)]
+    assert not integer.floating_point_range
+    real = parameter_descriptor('period [s]', 0.5, (0.05, 60))
+    assert [(r.from_value, r.to_value, r.step) for r in real.floating_point_range] == [
+        (0.05, 60.0, 0.0)]
+    assert not real.integer_range and not real.read_only
+    stepped = parameter_descriptor('direction', -1, (-1, 1), integer_step=2)
+    assert [(r.from_value, r.to_value, r.step) for r in stepped.integer_range] == [(-1, 1, 2)]
+    for default in (True, 'forte_base_link'):      # no range for a flag or a text
+        plain = parameter_descriptor('x', default, (0, 1))
+        assert not plain.integer_range and not plain.floating_point_range
+    unbounded = parameter_descriptor('x', 3)
+    assert not unbounded.integer_range
+    assert with_range(unbounded, 0, 9, integer=True).integer_range[0].to_value == 9

@@ -44,8 +44,6 @@ from pathlib import Path
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
     ParameterDescriptor,
     SetParametersResult,
 )
@@ -62,6 +60,7 @@ from forte_perception.pipeline import PerceptionOutput, PerceptionPipeline, Pipe
 from forte_perception.slip import SlipParams
 from forte_ros import run_node
 from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
+from forte_ros.parameters import parameter_descriptor
 from forte_ros.qos import DIAGNOSTICS, SENSOR_FRAMES, TACTILE_STATE
 
 CHANNEL_NAMES = ('left_distal', 'left_middle', 'left_root',
@@ -95,20 +94,6 @@ PIPELINE_PARAMETERS: dict[str, tuple] = {
     'stuck_duration': (5.0, 'a channel exactly constant this long is reported stuck (WARN, '
                        'not invalidating) [s]', (0.01, 3600.0), 'stuck_duration'),
 }
-
-
-def _descriptor(description: str, bounds, value, read_only: bool = False
-                ) -> ParameterDescriptor:
-    descriptor = ParameterDescriptor(description=description, read_only=read_only)
-    if bounds is not None and isinstance(value, bool):
-        return descriptor
-    if bounds is not None and isinstance(value, int):
-        descriptor.integer_range = [IntegerRange(from_value=int(bounds[0]),
-                                                 to_value=int(bounds[1]), step=1)]
-    elif bounds is not None:
-        descriptor.floating_point_range = [FloatingPointRange(
-            from_value=float(bounds[0]), to_value=float(bounds[1]), step=0.0)]
-    return descriptor
 
 
 def build_config(values: dict, sample_rate: float) -> PipelineConfig:
@@ -150,17 +135,18 @@ class PerceptionNode(Node):
         self.declare_parameter('model_path', '', ParameterDescriptor(
             description='force model file (.npz written by forte_train_force); empty: no '
                         'force estimate (force_valid false)'))
-        self.declare_parameter('sample_rate', 2000.0, _descriptor(
+        self.declare_parameter('sample_rate', 2000.0, parameter_descriptor(
             'expected input sample rate [Hz]; messages with another sample_period are dropped',
-            (1.0, 1e6), 2000.0, read_only=True))
+            2000.0, (1.0, 1e6), read_only=True))
         self.declare_parameter('frame_id', 'forte_base_link', ParameterDescriptor(
             description='frame_id of tactile/state when the input has none'))
-        self.declare_parameter('stale_timeout', 0.1, _descriptor(
-            'no input for this long -> publish data_valid false [s]', (0.001, 60.0), 0.1))
-        self.declare_parameter('diagnostics_period', 1.0, _descriptor(
-            'period of /diagnostics [s]', (0.05, 60.0), 1.0, read_only=True))
+        self.declare_parameter('stale_timeout', 0.1, parameter_descriptor(
+            'no input for this long -> publish data_valid false [s]', 0.1, (0.001, 60.0)))
+        self.declare_parameter('diagnostics_period', 1.0, parameter_descriptor(
+            'period of /diagnostics [s]', 1.0, (0.05, 60.0), read_only=True))
         for name, (default, description, bounds, _) in PIPELINE_PARAMETERS.items():
-            self.declare_parameter(name, default, _descriptor(description, bounds, default))
+            self.declare_parameter(name, default,
+                                   parameter_descriptor(description, default, bounds))
 
         self._lock = threading.RLock()
         self._sample_rate = float(self.get_parameter('sample_rate').value)

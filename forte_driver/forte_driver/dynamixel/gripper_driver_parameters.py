@@ -12,11 +12,12 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rcl_interfaces.msg import ParameterDescriptor
 
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel.commands import GripperLimits
 from forte_driver.dynamixel.gripper_config import FingerConfig, GripperConfig
+from forte_ros.parameters import parameter_descriptor
 
 LEFT_JOINT = 'forte_left_finger_joint'
 RIGHT_JOINT = 'forte_right_finger_joint'
@@ -36,14 +37,6 @@ CURRENT_RANGE_A = (0.00269, 3.20917)
 """Currents [A] the Current Limit register can hold (1..1193 x 2.69 mA)."""
 VELOCITY_RANGE_RAD_S = (0.024, 24.5)
 """Velocities [rad/s] the Velocity Limit register can hold (about 1..1023 x 0.0239809)."""
-
-
-def _float_range(low: float, high: float) -> list[FloatingPointRange]:
-    return [FloatingPointRange(from_value=low, to_value=high, step=0.0)]
-
-
-def _int_range(low: int, high: int, step: int = 1) -> list[IntegerRange]:
-    return [IntegerRange(from_value=low, to_value=high, step=step)]
 
 
 @dataclass(frozen=True)
@@ -75,13 +68,10 @@ class DriverParameter:
     def descriptor(self) -> ParameterDescriptor:
         """The descriptor declared with the parameter."""
         hardware = HARDWARE_NOTE if self.name in HARDWARE_PARAMETERS else ''
-        descriptor = ParameterDescriptor(description=self.description + hardware,
-                                         read_only=self.read_only)
-        if self.value_range and isinstance(self.default, float):
-            descriptor.floating_point_range = _float_range(*self.value_range)
-        elif self.value_range:
-            descriptor.integer_range = _int_range(*self.value_range)
-        return descriptor
+        bounds = self.value_range[:2] or None
+        step = self.value_range[2] if len(self.value_range) > 2 else 1
+        return parameter_descriptor(self.description + hardware, self.default, bounds,
+                                    self.read_only, integer_step=step)
 
 
 def _finger_parameters(side: str, servo_id: int, direction: int) -> tuple[DriverParameter, ...]:

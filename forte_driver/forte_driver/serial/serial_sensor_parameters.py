@@ -3,13 +3,9 @@ validation of changes. Used by :mod:`forte_driver.serial.serial_sensor_node`; se
 table in docs/serial_driver.md."""
 from __future__ import annotations
 
-from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
-    ParameterDescriptor,
-    ParameterType,
-    SetParametersResult,
-)
+from rcl_interfaces.msg import ParameterType, SetParametersResult
+
+from forte_ros.parameters import parameter_descriptor
 
 #: Every parameter of the node: name -> (default, description, (low, high) range or None,
 #: read only). A range is an integer range for an integer default, else a floating point
@@ -43,25 +39,12 @@ PARAMETERS: dict[str, tuple[object, str, tuple[float, float] | None, bool]] = {
 }
 
 
-def parameter_descriptor(default: object, description: str,
-                         bounds: tuple[float, float] | None,
-                         read_only: bool) -> ParameterDescriptor:
-    """The descriptor of one :data:`PARAMETERS` entry (range steps 0: any value inside)."""
-    descriptor = ParameterDescriptor(description=description, read_only=read_only)
-    if bounds is not None and isinstance(default, int):
-        descriptor.integer_range = [IntegerRange(from_value=bounds[0], to_value=bounds[1],
-                                                 step=0)]
-    elif bounds is not None:
-        descriptor.floating_point_range = [FloatingPointRange(
-            from_value=bounds[0], to_value=bounds[1], step=0.0)]
-    return descriptor
-
-
 def declare_parameters(node) -> None:
     """Declare every parameter of the serial sensor node (:data:`PARAMETERS`)."""
     for name, (default, description, bounds, read_only) in PARAMETERS.items():
         node.declare_parameter(name, default,
-                               parameter_descriptor(default, description, bounds, read_only))
+                               parameter_descriptor(description, default, bounds, read_only,
+                                                    integer_step=0))
 
 
 def validate_parameters(parameters, state_label: str) -> SetParametersResult:

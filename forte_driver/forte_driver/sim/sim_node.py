@@ -32,9 +32,6 @@ import time
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistStamped
 from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
-    ParameterDescriptor,
     SetParametersResult,
 )
 from rclpy.lifecycle import LifecycleState, TransitionCallbackReturn
@@ -52,6 +49,7 @@ from forte_driver.sim import (
 from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileFrames
 from forte_ros import ForteLifecycleNode, run_node
 from forte_ros.diagnostics import OK, diagnostic_array, diagnostic_status
+from forte_ros.parameters import parameter_descriptor
 from forte_ros.qos import COMMANDS, DIAGNOSTICS, GROUND_TRUTH, SENSOR_FRAMES, reliable
 
 LEFT_JOINT = 'forte_left_finger_joint'
@@ -63,44 +61,34 @@ FAST_PERIOD = 1e-4          # timer period at real_time_factor 0 (free running) 
 RELIABLE_FRAMES_DEPTH = 1000    # reliable frames queue: 10 s of batches for slow readers
 
 
-def _integers(low: int, high: int) -> IntegerRange:
-    """Any integer in [low, high]."""
-    return IntegerRange(from_value=low, to_value=high, step=1)
-
-
-def _floats(low: float, high: float) -> FloatingPointRange:
-    """Any value in [low, high]."""
-    return FloatingPointRange(from_value=low, to_value=high, step=0.0)
-
-
 #: Every parameter of the node: name -> (default, description, value range or None,
 #: read only), in the order of declaration. The scene's parameters
 #: (:data:`SCENE_PARAMETERS`) apply at the next configure (cleanup + configure = a new scene).
-PARAMETERS: dict[str, tuple[object, str, IntegerRange | FloatingPointRange | None, bool]] = {
+PARAMETERS: dict[str, tuple[object, str, tuple[float, float] | None, bool]] = {
     'scene': ('grasp', f'scene name, one of {", ".join(SCENE_NAMES)} (applies at configure)',
               None, False),
     'object': ('apple', 'object type (grasp scenes, see forte_driver.sim.OBJECTS) or indentor '
                'name (calibration scene) (applies at configure)', None, False),
     'seed': (0, 'seed of every random draw of the scene (applies at configure)',
-             _integers(0, 2 ** 31 - 1), False),
+             (0, 2 ** 31 - 1), False),
     'trial': (0, 'trial index reported in sim/ground_truth (applies at configure)',
-              _integers(0, 2 ** 31 - 1), False),
+              (0, 2 ** 31 - 1), False),
     'real_time_factor': (1.0, 'simulated seconds per wall second; 0 = as fast as possible',
-                         _floats(0.0, 1000.0), False),
+                         (0.0, 1000.0), False),
     'publish_clock': (False, 'publish /clock (rosgraph_msgs/Clock) with the simulation time',
                       None, True),
     'clock_rate': (20.0, '/clock messages per simulated second (at most one per batch): every '
                    '/clock message wakes every node on the simulation clock, so it is kept '
                    'low; nodes that need finer time read the sample stamps [Hz]',
-                   _floats(1.0, 2000.0), True),
+                   (1.0, 2000.0), True),
     'reliable': (False, 'reliable QoS on tactile/frames (for recording); default sensor data '
                  'QoS', None, True),
-    'batch_size': (20, 'samples per TactileFrames message', _integers(1, 2000), True),
+    'batch_size': (20, 'samples per TactileFrames message', (1, 2000), True),
     'frame_id': ('forte_base_link', 'frame_id of tactile/frames', None, True),
     'timer_period': (0.01, 'wall period of the production timer in real time [s]',
-                     _floats(0.001, 0.1), True),
+                     (0.001, 0.1), True),
     'cmd_vel_timeout': (0.5, 'the arm stops when no arm/cmd_vel arrived for this long '
-                        '(simulated) [s]', _floats(0.01, 60.0), False),
+                        '(simulated) [s]', (0.01, 60.0), False),
     'autostart': (True, 'configure and activate at start-up without a lifecycle manager',
                   None, True),
 }
@@ -148,12 +136,9 @@ class SimNode(ForteLifecycleNode):
 
     # ------------------------------------------------------------------ parameters
     def _declare_parameters(self) -> None:
-        for name, (default, description, value_range, read_only) in PARAMETERS.items():
-            self.declare_parameter(name, default, ParameterDescriptor(
-                description=description, read_only=read_only,
-                integer_range=[value_range] if isinstance(value_range, IntegerRange) else [],
-                floating_point_range=([value_range] if isinstance(value_range, FloatingPointRange)
-                                      else [])))
+        for name, (default, description, bounds, read_only) in PARAMETERS.items():
+            self.declare_parameter(name, default,
+                                   parameter_descriptor(description, default, bounds, read_only))
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         for parameter in parameters:
