@@ -17,6 +17,7 @@ depending on each other (they all depend on forte_msgs).
 - :mod:`forte_ros.qos`: the QoS profiles of docs/contracts.md, defined once.
 - :mod:`forte_ros.diagnostics`: :func:`diagnostic_status` and :func:`diagnostic_array`, the
   one way nodes build ``/diagnostics`` messages.
+- :mod:`forte_ros.parameters`: parameter descriptors (ranges) from a node's parameter table.
 - :mod:`forte_ros.testing`: run a node executable as a child process, stop it with a
   signal, check its output (used by the tests of every package).
 """
