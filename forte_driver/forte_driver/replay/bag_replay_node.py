@@ -25,10 +25,6 @@ from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
-    ParameterDescriptor,
-    ParameterType,
     SetParametersResult,
 )
 from rclpy.node import Node
@@ -38,6 +34,7 @@ from rclpy.serialization import deserialize_message
 from forte_driver.replay.mcap_source import BagError, BagMessage, BagReadReport, bag_files, read_bag
 from forte_ros import publish_quietly, run_node
 from forte_ros.diagnostics import ERROR, OK, diagnostic_array, diagnostic_status
+from forte_ros.parameters import parameter_descriptor
 from forte_ros.qos import DIAGNOSTICS, GRASP_STATE, SENSOR_FRAMES, reliable
 
 #: History depth of the reliable replay publishers [messages] (about 100 s of frames).
@@ -64,6 +61,26 @@ def message_class(msgtype: str) -> type:
 def relative_name(topic: str) -> str:
     """The bag topic as a relative name, so that namespaces and remapping apply."""
     return topic.lstrip('/')
+
+
+#: Every parameter of the node: name -> (default, description, (low, high) range or None,
+#: read only), in the order of declaration.
+PARAMETERS: dict[str, tuple[object, str, tuple[float, float] | None, bool]] = {
+    'bag_path': ('', 'rosbag2 MCAP folder or single .mcap file to replay', None, True),
+    'topics': (['tactile/frames'],
+               'bag topics to republish (relative names; published relative so they can be '
+               'remapped). Empty = every topic of the bag', None, True),
+    'rate': (1.0, 'playback speed factor: 1.0 = recorded timing, 2.0 = twice as fast, 0.0 = '
+             'as fast as possible', (0.0, 1000.0), False),
+    'reliable': (False, 'publish tactile/frames reliable instead of sensor-data best effort '
+                 '(use with rate 0 so nothing is dropped)', None, True),
+    'start_delay': (0.5, 'seconds to wait after start-up before the first message [s]',
+                    (0.0, 60.0), True),
+    'wait_for_subscribers': (0, 'before the first message of each topic, wait (up to 30 s) '
+                             'until that many subscribers matched (0 = do not wait)',
+                             (0, 100), True),
+    'exit_when_done': (False, 'shut the node down after the last message', None, True),
+}
 
 
 class ReplayClock:
@@ -135,61 +152,9 @@ class BagReplayNode(Node):
 
     # parameters ------------------------------------------------------------------------
     def _declare_parameters(self) -> None:
-        self.declare_parameter(
-            'bag_path', '',
-            ParameterDescriptor(
-                description='rosbag2 MCAP folder or single .mcap file to replay',
-                read_only=True,
-            ),
-        )
-        self.declare_parameter(
-            'topics', ['tactile/frames'],
-            ParameterDescriptor(
-                type=ParameterType.PARAMETER_STRING_ARRAY,
-                description='bag topics to republish (relative names; published relative so '
-                            'they can be remapped). Empty = every topic of the bag',
-                read_only=True,
-            ),
-        )
-        self.declare_parameter(
-            'rate', 1.0,
-            ParameterDescriptor(
-                description='playback speed factor: 1.0 = recorded timing, 2.0 = twice as '
-                            'fast, 0.0 = as fast as possible',
-                floating_point_range=[FloatingPointRange(from_value=0.0, to_value=1000.0)],
-            ),
-        )
-        self.declare_parameter(
-            'reliable', False,
-            ParameterDescriptor(
-                description='publish tactile/frames reliable instead of sensor-data best '
-                            'effort (use with rate 0 so nothing is dropped)',
-                read_only=True,
-            ),
-        )
-        self.declare_parameter(
-            'start_delay', 0.5,
-            ParameterDescriptor(
-                description='seconds to wait after start-up before the first message [s]',
-                floating_point_range=[FloatingPointRange(from_value=0.0, to_value=60.0)],
-                read_only=True,
-            ),
-        )
-        self.declare_parameter(
-            'wait_for_subscribers', 0,
-            ParameterDescriptor(
-                description='before the first message of each topic, wait (up to 30 s) until '
-                            'that many subscribers matched (0 = do not wait)',
-                integer_range=[IntegerRange(from_value=0, to_value=100, step=1)],
-                read_only=True,
-            ),
-        )
-        self.declare_parameter(
-            'exit_when_done', False,
-            ParameterDescriptor(
-                description='shut the node down after the last message', read_only=True,
-            ),
-        )
+        for name, (default, description, bounds, read_only) in PARAMETERS.items():
+            self.declare_parameter(name, default,
+                                   parameter_descriptor(description, default, bounds, read_only))
 
     def _on_set_parameters(self, parameters: list) -> SetParametersResult:
         for parameter in parameters:
