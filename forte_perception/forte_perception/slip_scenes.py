@@ -10,7 +10,8 @@ Common to every scene (``fs`` = 2000 Hz):
 - a **finger profile** (:data:`PROFILES`, the "object" of the split): the contact location
   along the finger, which sets the channel pattern of pressure (distal > middle > root, the
   simulator's channel kernel), the bending mode of the finger excited by stick-slip
-  releases (12-50 Hz, damping 0.07-0.12), how much of a release the other finger feels
+  releases (14-38 Hz, damping 0.07-0.12; the simulator's 30 Hz / sqrt(1 + m / 0.3 kg)
+  gives 17-30 Hz for its objects), how much of a release the other finger feels
   through the object, and the static grip reading;
 - a **background**: per-channel zero offset (+-30 LSB), the static grip pattern, white
   noise of standard deviation ``noise_lsb`` and the sensor's slow drift (random walk
@@ -42,10 +43,11 @@ Families (``noise_lsb`` log-uniform in 0.3-2 LSB unless stated):
     0.3-1. The grasp is static: all holding.
 ``stick_slip_<a>_<b>lsb``
     During a lift, three stick-slip bursts of 0.1-0.6 s: releases at 10-50 Hz (period
-    jitter +-20 %, jumps +-30 %) step the contact shear down and ring the finger's bending
-    mode (the simulator's resonator: ringing = resonator(steps) - steps). Strength = peak
-    ringing on the strongest channel of the slipping finger, log-uniform in [a, b] LSB; the
-    other finger feels the profile's coupling (0.4-0.7) of it. The static shear steps are
+    jitter +-20 %, never shorter than 20 ms; jumps +-30 %) step the contact shear down
+    and ring the finger's bending mode (the simulator's resonator: ringing =
+    resonator(steps) - steps). Strength = peak ringing on the strongest channel of the
+    slipping finger, log-uniform in [a, b] LSB; the other finger feels the profile's
+    coupling (0.4-0.7) of it. The static shear steps are
     1/30 of the ringing per release (the simulator's shear / vibration gains). Event: first
     release to last release + 0.1 s (the simulator's stick-slip label).
 ``leading_finger``
@@ -63,8 +65,8 @@ Labels: slip events as above; *busy* = the distractor plus the detector's reach 
 :mod:`forte_perception.slip_labels`).
 
 Split: profiles ``p0 p2 p4 p6`` with seeds 0, 2, 4, 6 are *tune*; ``p1 p3 p5 p7`` with
-seeds 1, 3, 5, 7 are *held-out*. The held-out profiles' resonances (19, 27, 36, 45 Hz) lie
-between the tune ones (16, 23, 31, 41 Hz).
+seeds 1, 3, 5, 7 are *held-out*. The held-out profiles' resonances (17, 23, 29, 38 Hz) lie
+between and above the tune ones (14, 20, 26, 33 Hz).
 """
 from __future__ import annotations
 
@@ -153,14 +155,14 @@ class FingerProfile:
 
 
 PROFILES = (
-    FingerProfile('p0', 0.20, 16.0, 0.08, 0.50, 120.0),
-    FingerProfile('p1', 0.30, 19.0, 0.10, 0.60, 200.0),
-    FingerProfile('p2', 0.40, 23.0, 0.12, 0.40, 300.0),
-    FingerProfile('p3', 0.50, 27.0, 0.07, 0.70, 80.0),
-    FingerProfile('p4', 0.60, 31.0, 0.10, 0.55, 250.0),
-    FingerProfile('p5', 0.70, 36.0, 0.09, 0.45, 150.0),
-    FingerProfile('p6', 0.35, 41.0, 0.11, 0.65, 180.0),
-    FingerProfile('p7', 0.45, 45.0, 0.08, 0.50, 100.0),
+    FingerProfile('p0', 0.20, 14.0, 0.08, 0.50, 120.0),
+    FingerProfile('p1', 0.30, 17.0, 0.10, 0.60, 200.0),
+    FingerProfile('p2', 0.40, 20.0, 0.12, 0.40, 300.0),
+    FingerProfile('p3', 0.50, 23.0, 0.07, 0.70, 80.0),
+    FingerProfile('p4', 0.60, 26.0, 0.10, 0.55, 250.0),
+    FingerProfile('p5', 0.70, 29.0, 0.09, 0.45, 150.0),
+    FingerProfile('p6', 0.35, 33.0, 0.11, 0.65, 180.0),
+    FingerProfile('p7', 0.45, 38.0, 0.08, 0.50, 100.0),
 )
 _PROFILE = {p.name: p for p in PROFILES}
 
@@ -220,7 +222,7 @@ def burst_component(n: int, onset: int, duration: float, rate_hz: float,
     times, t = [], float(onset)
     while t < onset + duration * FS:
         times.append(int(t))
-        t += FS / rate_hz * rng.uniform(0.8, 1.2)
+        t += max(FS / rate_hz * rng.uniform(0.8, 1.2), FS / 50.0)
     drive = np.zeros(n)
     np.add.at(drive, np.array(times), rng.uniform(0.7, 1.3, len(times)))
     drive = np.cumsum(drive)
