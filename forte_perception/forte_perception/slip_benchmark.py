@@ -3,9 +3,13 @@
 A *mode* is a function ``SensorInput -> Detection``: it sees the raw frames, the causal
 median-11 filtered frames (as the perception pipeline gives the detector), the sampling
 rate and the scene's context signals (commanded servo angle and arm velocity, the servo's
-reported angle), never the labels. Today there is one mode, ``'paper'``: the paper's
-detector exactly (:func:`forte_perception.slip.slip_features` with the paper's
-:class:`~forte_perception.slip.SlipParams`).
+reported angle), never the labels. Modes: ``'paper'``, the paper's detector exactly
+(:func:`forte_perception.slip.slip_features` with the paper's
+:class:`~forte_perception.slip.SlipParams`); ``'robust'``, the same detector with
+``SlipParams(mode='robust')`` (:mod:`forte_perception.slip_robust`); and
+``'robust_servo_gate'``, the robust detector whose flags are dropped for
+:data:`SERVO_HOLD` s after a change of the commanded servo angle (:func:`servo_gate`: uses
+the command, which the detector does not have, so a controller-side option).
 
 :func:`run_mode` runs a mode over scenes ``repeats`` times; the detections of the first run
 are scored (:mod:`forte_perception.slip_events`), the CPU time is ``time.process_time`` of
@@ -28,8 +32,9 @@ from .slip import SlipParams, slip_features
 from .slip_events import MAX_LATENCY, SceneOutcome, scene_outcome, summarise
 from .slip_labels import SPLITS, SlipScene
 
-__all__ = ['MODES', 'Detection', 'SensorInput', 'markdown', 'paper_mode', 'prepare',
-           'report', 'run_mode']
+__all__ = ['MODES', 'SERVO_HOLD', 'Detection', 'SensorInput', 'markdown', 'paper_mode',
+           'prepare', 'report', 'robust_mode', 'robust_servo_gate_mode', 'run_mode',
+           'servo_gate']
 
 
 @dataclass
@@ -71,8 +76,48 @@ def paper_mode(inp: SensorInput) -> Detection:
     return Detection(res.sample_index, res.slip, int(params.hop))
 
 
+def robust_mode(inp: SensorInput, params: SlipParams | None = None) -> Detection:
+    """The robust detector mode (:mod:`forte_perception.slip_robust`), default parameters
+    unless ``params`` is given. Sees the filtered frames only, as the paper mode."""
+    params = params or SlipParams(mode='robust')
+    res = slip_features(inp.filtered, fs=inp.fs, params=params)
+    return Detection(res.sample_index, res.slip, int(params.hop))
+
+
+#: Flags are ignored for this long after a change of the commanded servo angle [s].
+SERVO_HOLD = 0.35
+
+
+def servo_gate(det: Detection, inp: SensorInput, hold: float = SERVO_HOLD) -> Detection:
+    """Drop the flags of updates ending within ``hold`` s after a change of the commanded
+    servo angle (context ``servo_command``; unchanged where the scene has none).
+
+    Not a detector feature: the perception pipeline does not see the servo command. It
+    belongs to the controller (which knows when it moves the servo) or to a pipeline input.
+    """
+    command = inp.context.get('servo_command')
+    if command is None or not det.slip.any():
+        return det
+    c = np.nan_to_num(np.asarray(command, np.float64))
+    changes = np.flatnonzero(np.abs(np.diff(c)) > 1e-7) + 1
+    if not changes.size:
+        return det
+    idx = np.asarray(det.sample_index)
+    last = np.searchsorted(changes, idx, side='right') - 1  # latest change at or before
+    since = np.where(last >= 0, idx - changes[np.maximum(last, 0)], np.iinfo(np.int64).max)
+    quiet = since >= int(round(hold * inp.fs))
+    return Detection(idx, np.asarray(det.slip, bool) & quiet, det.hop)
+
+
+def robust_servo_gate_mode(inp: SensorInput) -> Detection:
+    """The robust mode plus :func:`servo_gate` (uses the servo command: a controller-side
+    option, not part of the detector)."""
+    return servo_gate(robust_mode(inp), inp)
+
+
 #: Detector modes by name.
-MODES: dict[str, Callable[[SensorInput], Detection]] = {'paper': paper_mode}
+MODES: dict[str, Callable[[SensorInput], Detection]] = {
+    'paper': paper_mode, 'robust': robust_mode, 'robust_servo_gate': robust_servo_gate_mode}
 
 
 def prepare(scenes: list[SlipScene], median_window: int = 11) -> list[SensorInput]:

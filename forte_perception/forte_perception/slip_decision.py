@@ -128,9 +128,14 @@ def _decide_rest_robust(h: list[np.ndarray], min_diff: np.ndarray, params: SlipP
         left = (cv[0] + cv[1] + cv[2]) / 3.0
         right = (cv[3] + cv[4] + cv[5]) / 3.0
         gate = both[cols] & (left >= params.alpha) & (right >= params.alpha)
+        # alone: enough channels of the finger rise with a variance of at least alpha each
+        strong = cv >= params.alpha
+        k = int(params.single_min_rising)
+        alone_l = (strong[0].astype(np.int8) + strong[1] + strong[2]) >= k
+        alone_r = (strong[3].astype(np.int8) + strong[4] + strong[5]) >= k
         single = params.single_threshold
-        keep_left = gate | (alone[0][cols] & (left > single))
-        keep_right = gate | (alone[1][cols] & (right > single))
+        keep_left = gate | (alone_l & (left > single))
+        keep_right = gate | (alone_r & (right > single))
         channel_variance[:, cols] = cv
         finger_raw[:, cols] = np.stack([left, right], axis=0)
         finger[0, cols] = np.where(keep_left, left, 0.0)
@@ -178,10 +183,12 @@ def _running_min(values: np.ndarray, width: int) -> np.ndarray:
     return np.minimum(cur[:, :out_len], cur[:, width - span:width - span + out_len])
 
 
-def _borderline(finger_raw: np.ndarray, min_diff: np.ndarray, params: SlipParams) -> np.ndarray:
+def _borderline(finger_raw: np.ndarray, min_diff: np.ndarray, params: SlipParams,
+                channel_variance: np.ndarray | None = None) -> np.ndarray:
     """Updates whose decision could flip inside the numerical guard bands, shape (m,).
 
-    ``finger_raw`` (2, m) and ``min_diff`` (6, m).
+    ``finger_raw`` (2, m) and ``min_diff`` (6, m); in the robust mode also a channel
+    variance (6, m) near alpha (the one-finger rule counts the channels reaching it).
     """
     border = np.abs(min_diff - params.delta).min(axis=0) <= params.guard_db
     cols = np.nonzero(finger_raw.any(axis=0))[0]  # group averages are 0 elsewhere
@@ -194,6 +201,10 @@ def _borderline(finger_raw: np.ndarray, min_diff: np.ndarray, params: SlipParams
             single = params.single_threshold
             near |= np.abs(f - single) <= g * max(1.0, abs(single))
         border[cols] |= near.any(axis=0)
+        if params.robust and channel_variance is not None:
+            cv = channel_variance[:, cols]
+            border[cols] |= (np.abs(cv - params.alpha)
+                             <= g * max(1.0, abs(params.alpha))).any(axis=0)
     if params.alpha <= 0.0 or params.threshold <= 0.0:  # 0 itself is near a threshold
         border |= _zero_near(finger_raw, params)
     return border
@@ -236,6 +247,6 @@ def decide_updates(psd: np.ndarray, first_update: int, params: SlipParams, prior
         channel_variance[:, first:] = cv
         finger[:, first:] = fv
         slip[first:] = sl
-        border[first:] = _borderline(fraw, md, params)
+        border[first:] = _borderline(fraw, md, params, cv)
     return channel_variance, finger, slip, active, border
 

@@ -61,11 +61,12 @@ class SlipParams:
     quantum : float
         Robust mode: the ADC step q [normalised units] (2/2048: 11 bits over a span of 2).
     floor_factor : float
-        Robust mode: PSD floor = ``floor_factor * q**2 / (6 fs)`` [1] (4, tuned).
+        Robust mode: PSD floor = ``floor_factor * q**2 / (6 fs)`` [1] (4).
     single_threshold : float
-        Robust mode: a finger may flag alone when its group average exceeds this [dB^2] (4).
+        Robust mode: a finger may flag alone when its group average exceeds this [dB^2] (3).
     single_min_rising : int
-        Robust mode: ... and at least this many of its channels rise monotonically (2).
+        Robust mode: ... and at least this many of its channels rise monotonically with a
+        moving variance of at least ``alpha`` each (2).
     veto_level : int
         Robust mode: length of the running mean that gives a channel's level [samples] (200).
     veto_span : int
@@ -73,7 +74,7 @@ class SlipParams:
     veto_ratio : float
         Robust mode: a flag is vetoed when, on every finger, the largest level shift exceeds
         ``veto_ratio`` times the largest peak-to-peak 10-50 Hz amplitude implied by the
-        band's PSD maximum [1] (2).
+        band's PSD maximum [1] (0.33).
     """
 
     window: int = 400
@@ -91,11 +92,11 @@ class SlipParams:
     mode: str = 'paper'
     quantum: float = 2.0 / 2048.0
     floor_factor: float = 4.0
-    single_threshold: float = 4.0
+    single_threshold: float = 3.0
     single_min_rising: int = 2
     veto_level: int = 200
     veto_span: int = 400
-    veto_ratio: float = 2.0
+    veto_ratio: float = 0.33
 
     @property
     def robust(self) -> bool:
