@@ -25,7 +25,13 @@ import numpy as np
 from scipy import signal
 
 from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
-from forte_perception.slip import SlipDetector, SlipParams, slip_features, slip_features_reference
+from forte_perception.slip import (
+    SlipDetector,
+    SlipFeatures,
+    SlipParams,
+    slip_features,
+    slip_features_reference,
+)
 
 FS = 2000.0
 LSB = 2.0 / 2048.0
@@ -96,7 +102,6 @@ def _chunked(x: np.ndarray, params: SlipParams) -> str:
         parts.append(det.update(x[i:i + step]))
         i += step
         k += 1
-    from forte_perception.slip import SlipFeatures
     return _features_digest(SlipFeatures.concatenate(parts))
 
 
