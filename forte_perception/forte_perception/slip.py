@@ -63,6 +63,7 @@ from .slip_params import (
     check_frames,
 )
 from .slip_reference import reference_psd_max_db, slip_features_reference
+from .slip_robust import level_shift_veto, veto_reach
 
 __all__ = [
     'NonFiniteInputError',
@@ -130,6 +131,8 @@ class SlipDetector:
         self._scale = (doubling / (16.0 * self.fs * s2))[:, None, None]  # (B, 1, 1)
         self._uniform_scale = bool(np.all(doubling == doubling[0]))
         self._keep = n + (int(self.params.history) - 1) * self._hop + self._hop
+        self._floor = self.params.psd_floor(self.fs)  # eps in the paper mode
+        self._reach = veto_reach(self.params)  # 0 in the paper mode
         self.reset()
 
     # -- state
@@ -202,6 +205,8 @@ class SlipDetector:
         psd, cv, fv = psd.T, cv.T, fv.T
         if border.any():
             self._redecide(border, buf, start, ends, cv, fv, sl)
+        if self._reach and sl.any():
+            self._veto(buf, start, ends, psd, fv, sl)
         self._updates += m
         self._store(buf, start)
         return SlipFeatures(ends.astype(np.int64), psd, cv, fv, sl, act)
@@ -282,7 +287,7 @@ class SlipDetector:
             top = p.max(axis=0) * self._scale[0, 0, 0]
         else:
             top = (p * self._scale).max(axis=0)
-        return 10.0 * np.log10(top + self.params.eps)
+        return 10.0 * np.log10(top + self._floor)
 
     def _redecide(self, border: np.ndarray, buf: np.ndarray, start: int, ends: np.ndarray,
                   cv: np.ndarray, fv: np.ndarray, sl: np.ndarray) -> None:
@@ -301,11 +306,27 @@ class SlipDetector:
             cv[i], fv[i], sl[i] = c[0], f[0], s[0]
             self.reference_recomputations += 1
 
+    def _veto(self, buf: np.ndarray, start: int, ends: np.ndarray, psd: np.ndarray,
+              fv: np.ndarray, sl: np.ndarray) -> None:
+        """Robust mode: clear the flags the level-shift rule vetoes (and their finger
+        averages, as if they had not passed), :mod:`forte_perception.slip_robust`."""
+        n = self._n
+
+        def exact(i: int) -> np.ndarray:
+            t = int(ends[i])
+            return reference_psd_max_db(buf[t - n + 1 - start:t + 1 - start], self.fs,
+                                        self.params)
+
+        veto = level_shift_veto(buf, start, ends, psd, sl, self.params, self.fs, exact)
+        sl[veto] = False
+        fv[veto] = 0.0
+
     def _store(self, buf: np.ndarray, start: int) -> None:
         """Keep the samples the next updates (and a guarded re-decision) may need."""
         n, hop, v = self._n, self._hop, int(self.params.history)
         next_t = n - 1 + self._updates * hop
-        first_needed = max(0, next_t - hop - (v - 1) * hop - n + 1)
+        first_needed = max(0, min(next_t - hop - (v - 1) * hop - n + 1,
+                                  next_t - self._reach))
         drop = max(0, first_needed - start)
         self._buffer = buf[drop:].copy()
         self._buffer_start = start + drop

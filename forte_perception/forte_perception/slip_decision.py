@@ -38,6 +38,8 @@ def _decide_rest(h: list[np.ndarray], min_diff: np.ndarray, params: SlipParams
     where some channel rises monotonically (rare in practice), so it is computed for those
     updates only (same arithmetic per element, so the same bits).
     """
+    if params.robust:
+        return _decide_rest_robust(h, min_diff, params)
     v = len(h)
     shape = min_diff.shape
     md = min_diff.reshape(shape[0], -1)
@@ -81,6 +83,68 @@ def _decide_rest(h: list[np.ndarray], min_diff: np.ndarray, params: SlipParams
             slip.reshape(shape[1:]), min_diff, finger_raw.reshape((2,) + shape[1:]))
 
 
+def _rising_variance(h: list[np.ndarray], rising: np.ndarray, cols: np.ndarray, m: int
+                     ) -> np.ndarray:
+    """Moving variance (0 where the channel does not rise) of the updates ``cols``, (6, c).
+
+    The paper path's arithmetic (same order, so the same bits for the same values).
+    """
+    v = len(h)
+    flat = [np.asarray(x).reshape(x.shape[0], -1) for x in h]
+    hs = flat if cols.size == m else [x[:, cols] for x in flat]
+    total = hs[0].copy()
+    for i in range(1, v):
+        total = total + hs[i]
+    mean = total / v
+    sq = (hs[0] - mean) ** 2
+    for i in range(1, v):
+        sq = sq + (hs[i] - mean) ** 2
+    return np.where(rising[:, cols], sq / v, 0.0)
+
+
+def _decide_rest_robust(h: list[np.ndarray], min_diff: np.ndarray, params: SlipParams
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_decide_rest` of the robust mode: the paper's two-finger rule, or one finger
+    alone above ``single_threshold`` with ``single_min_rising`` rising channels
+    (:mod:`forte_perception.slip_robust`). Same outputs."""
+    shape = min_diff.shape
+    md = min_diff.reshape(shape[0], -1)
+    m = md.shape[1]
+    rising = md > params.delta
+    count = [rising[0].astype(np.int8) + rising[1] + rising[2],
+             rising[3].astype(np.int8) + rising[4] + rising[5]]
+    both = (count[0] > 0) & (count[1] > 0)
+    alone = [c >= int(params.single_min_rising) for c in count]
+    candidate = both | alone[0] | alone[1]
+    cols = np.nonzero(candidate)[0]
+    channel_variance = np.zeros((N_CHANNELS, m))
+    finger = np.zeros((2, m))
+    finger_raw = np.zeros((2, m))
+    slip = np.zeros(m, bool)
+    if cols.size:
+        if cols.size * 4 > m:
+            cols = np.arange(m)
+        cv = _rising_variance(h, rising & candidate, cols, m)  # 0 off the candidates
+        left = (cv[0] + cv[1] + cv[2]) / 3.0
+        right = (cv[3] + cv[4] + cv[5]) / 3.0
+        gate = both[cols] & (left >= params.alpha) & (right >= params.alpha)
+        # alone: enough channels of the finger rise with a variance of at least alpha each
+        strong = cv >= params.alpha
+        k = int(params.single_min_rising)
+        alone_l = (strong[0].astype(np.int8) + strong[1] + strong[2]) >= k
+        alone_r = (strong[3].astype(np.int8) + strong[4] + strong[5]) >= k
+        single = params.single_threshold
+        keep_left = gate | (alone_l & (left > single))
+        keep_right = gate | (alone_r & (right > single))
+        channel_variance[:, cols] = cv
+        finger_raw[:, cols] = np.stack([left, right], axis=0)
+        finger[0, cols] = np.where(keep_left, left, 0.0)
+        finger[1, cols] = np.where(keep_right, right, 0.0)
+        slip[cols] = np.maximum(finger[0, cols], finger[1, cols]) > params.threshold
+    return (channel_variance.reshape(shape), finger.reshape((2,) + shape[1:]),
+            slip.reshape(shape[1:]), min_diff, finger_raw.reshape((2,) + shape[1:]))
+
+
 def decide_slip(history: np.ndarray, params: SlipParams
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Moving variance, finger average, alpha gate and threshold for full histories.
@@ -119,10 +183,12 @@ def _running_min(values: np.ndarray, width: int) -> np.ndarray:
     return np.minimum(cur[:, :out_len], cur[:, width - span:width - span + out_len])
 
 
-def _borderline(finger_raw: np.ndarray, min_diff: np.ndarray, params: SlipParams) -> np.ndarray:
+def _borderline(finger_raw: np.ndarray, min_diff: np.ndarray, params: SlipParams,
+                channel_variance: np.ndarray | None = None) -> np.ndarray:
     """Updates whose decision could flip inside the numerical guard bands, shape (m,).
 
-    ``finger_raw`` (2, m) and ``min_diff`` (6, m).
+    ``finger_raw`` (2, m) and ``min_diff`` (6, m); in the robust mode also a channel
+    variance (6, m) near alpha (the one-finger rule counts the channels reaching it).
     """
     border = np.abs(min_diff - params.delta).min(axis=0) <= params.guard_db
     cols = np.nonzero(finger_raw.any(axis=0))[0]  # group averages are 0 elsewhere
@@ -131,7 +197,14 @@ def _borderline(finger_raw: np.ndarray, min_diff: np.ndarray, params: SlipParams
         f = finger_raw[:, cols]
         near = ((np.abs(f - params.alpha) <= g * max(1.0, abs(params.alpha)))
                 | (np.abs(f - params.threshold) <= g * max(1.0, abs(params.threshold))))
+        if params.robust:
+            single = params.single_threshold
+            near |= np.abs(f - single) <= g * max(1.0, abs(single))
         border[cols] |= near.any(axis=0)
+        if params.robust and channel_variance is not None:
+            cv = channel_variance[:, cols]
+            border[cols] |= (np.abs(cv - params.alpha)
+                             <= g * max(1.0, abs(params.alpha))).any(axis=0)
     if params.alpha <= 0.0 or params.threshold <= 0.0:  # 0 itself is near a threshold
         border |= _zero_near(finger_raw, params)
     return border
@@ -174,6 +247,6 @@ def decide_updates(psd: np.ndarray, first_update: int, params: SlipParams, prior
         channel_variance[:, first:] = cv
         finger[:, first:] = fv
         slip[first:] = sl
-        border[first:] = _borderline(fraw, md, params)
+        border[first:] = _borderline(fraw, md, params, cv)
     return channel_variance, finger, slip, active, border
 

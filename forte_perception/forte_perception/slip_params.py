@@ -11,10 +11,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ['FINGER_CHANNELS', 'N_CHANNELS', 'NonFiniteInputError', 'SlipFeatures',
+__all__ = ['FINGER_CHANNELS', 'MODES', 'N_CHANNELS', 'NonFiniteInputError', 'SlipFeatures',
            'SlipParams', 'bins_in_band', 'check_frames']
 
 N_CHANNELS = 6
+#: Detector modes (:attr:`SlipParams.mode`).
+MODES = ('paper', 'robust')
 FINGER_CHANNELS = ((0, 1, 2), (3, 4, 5))
 
 
@@ -51,6 +53,28 @@ class SlipParams:
         with the reference PSD (numerics only).
     guard_variance : float
         Half-width of the band around ``alpha`` and ``T`` [dB^2], same purpose.
+    mode : str
+        ``'paper'`` (default): the paper's algorithm bit for bit; the fields below are
+        ignored. ``'robust'``: the issue-14 mode (:mod:`forte_perception.slip_robust`), which
+        replaces ``eps`` by a quantisation floor, adds a per-finger rule and vetoes level
+        shifts.
+    quantum : float
+        Robust mode: the ADC step q [normalised units] (2/2048: 11 bits over a span of 2).
+    floor_factor : float
+        Robust mode: PSD floor = ``floor_factor * q**2 / (6 fs)`` [1] (4).
+    single_threshold : float
+        Robust mode: a finger may flag alone when its group average exceeds this [dB^2] (3).
+    single_min_rising : int
+        Robust mode: ... and at least this many of its channels rise monotonically with a
+        moving variance of at least ``alpha`` each (2).
+    veto_level : int
+        Robust mode: length of the running mean that gives a channel's level [samples] (200).
+    veto_span : int
+        Robust mode: the level shift is taken over this many samples [samples] (400).
+    veto_ratio : float
+        Robust mode: a flag is vetoed when, on every finger, the largest level shift exceeds
+        ``veto_ratio`` times the largest peak-to-peak 10-50 Hz amplitude implied by the
+        band's PSD maximum [1] (0.33).
     """
 
     window: int = 400
@@ -65,6 +89,26 @@ class SlipParams:
     resync_interval: int = 1000
     guard_db: float = 1e-7
     guard_variance: float = 1e-6
+    mode: str = 'paper'
+    quantum: float = 2.0 / 2048.0
+    floor_factor: float = 4.0
+    single_threshold: float = 3.0
+    single_min_rising: int = 2
+    veto_level: int = 200
+    veto_span: int = 400
+    veto_ratio: float = 0.33
+
+    @property
+    def robust(self) -> bool:
+        """True in the robust mode."""
+        return self.mode == 'robust'
+
+    def psd_floor(self, fs: float) -> float:
+        """What is added to the PSD before the logarithm [PSD units]: ``eps`` in the paper
+        mode, ``floor_factor * quantum**2 / (6 fs)`` in the robust mode."""
+        if not self.robust:
+            return self.eps
+        return float(self.floor_factor * self.quantum ** 2 / (6.0 * fs))
 
     def validate(self, fs: float = 2000.0) -> None:
         """Raise ValueError with a reason if the parameters are unusable at rate ``fs`` [Hz]."""
@@ -92,6 +136,25 @@ class SlipParams:
             raise ValueError(f'resync_interval must be an integer >= 1, got {self.resync_interval}')
         if not (self.guard_db >= 0 and self.guard_variance >= 0):
             raise ValueError('guards must be >= 0')
+        if self.mode not in MODES:
+            raise ValueError(f'mode must be one of {MODES}, got {self.mode!r}')
+        if self.robust:
+            self._validate_robust()
+
+    def _validate_robust(self) -> None:
+        for name in ('quantum', 'floor_factor', 'veto_ratio'):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f'{name} must be positive and finite, got {value}')
+        if not (np.isfinite(self.single_threshold) and self.single_threshold >= self.threshold):
+            raise ValueError(f'single_threshold must be >= threshold, got {self.single_threshold}')
+        if int(self.single_min_rising) != self.single_min_rising or not (
+                1 <= self.single_min_rising <= 3):
+            raise ValueError(f'single_min_rising must be 1, 2 or 3, got {self.single_min_rising}')
+        for name in ('veto_level', 'veto_span'):
+            value = getattr(self, name)
+            if int(value) != value or value < 1:
+                raise ValueError(f'{name} must be an integer >= 1, got {value}')
 
 
 def bins_in_band(params: SlipParams, fs: float) -> np.ndarray:

@@ -10,6 +10,7 @@ from scipy import signal
 
 from .slip_decision import decide_updates
 from .slip_params import N_CHANNELS, SlipFeatures, SlipParams, check_frames
+from .slip_robust import level_shift_veto
 
 __all__ = ['reference_psd_max_db', 'slip_features_reference']
 
@@ -33,7 +34,7 @@ def reference_psd_max_db(window: np.ndarray, fs: float, params: SlipParams) -> n
     f, p = signal.welch(window, fs=fs, window='hann', nperseg=n, noverlap=0,
                         detrend='constant', return_onesided=True, scaling='density', axis=0)
     band = (f >= params.f_min) & (f <= params.f_max)
-    return np.max(10.0 * np.log10(p[band] + params.eps), axis=0)
+    return np.max(10.0 * np.log10(p[band] + params.psd_floor(fs)), axis=0)
 
 
 def slip_features_reference(frames: np.ndarray, fs: float = 2000.0,
@@ -57,6 +58,7 @@ def slip_features_reference(frames: np.ndarray, fs: float = 2000.0,
     if x.shape[0] < n:
         return SlipFeatures()
     ends = np.arange(n - 1, x.shape[0], hop)
+    floor = params.psd_floor(fs)
     psd = np.empty((ends.size, N_CHANNELS))
     if vectorized:
         windows = np.lib.stride_tricks.sliding_window_view(x, n, axis=0)[::hop]  # (m, 6, N)
@@ -64,11 +66,15 @@ def slip_features_reference(frames: np.ndarray, fs: float = 2000.0,
             f, p = signal.welch(windows[b:b + 2000], fs=fs, window='hann', nperseg=n,
                                 noverlap=0, detrend='constant', scaling='density', axis=-1)
             band = (f >= params.f_min) & (f <= params.f_max)
-            psd[b:b + 2000] = np.max(10.0 * np.log10(p[..., band] + params.eps), axis=-1)
+            psd[b:b + 2000] = np.max(10.0 * np.log10(p[..., band] + floor), axis=-1)
     else:
         for i, t in enumerate(ends):
             psd[i] = reference_psd_max_db(x[t - n + 1:t + 1], fs, params)
     cv, fv, sl, act, _ = decide_updates(np.ascontiguousarray(psd.T), 0, params,
                                         np.zeros((N_CHANNELS, 0)))
-    return SlipFeatures(ends.astype(np.int64), psd, cv.T, fv.T, sl, act)
+    fv = fv.T
+    veto = level_shift_veto(x, 0, ends, psd, sl, params, fs)  # robust mode only
+    sl[veto] = False
+    fv[veto] = 0.0
+    return SlipFeatures(ends.astype(np.int64), psd, cv.T, fv, sl, act)
 
