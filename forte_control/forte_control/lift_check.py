@@ -88,6 +88,10 @@ class LiftCheckParams:
     loaded_level: float = 0.01          # mean |filtered| of a loaded gripper [normalised]
     loaded_force: float = 0.15          # valid force estimate of a loaded gripper [N]
     loaded_current: float = 0.1         # servo current rise over free closing [A]
+    gross_slip_reaction: bool = True    # FORTE tightens on gross-slip evidence while lifting
+    gross_slip_min_lift: float = 0.004  # commanded lift before the balance evidence counts [m]
+    gross_slip_decay: float = 0.2       # deformation fall below its lift peak that counts [-]
+    gross_slip_interval: float = 0.2    # least time between two gross-slip tightenings [s]
 
     def problems(self) -> list[str]:
         """Reasons why these thresholds are unusable (empty when valid).
@@ -172,6 +176,7 @@ class LiftMonitor:
         self._wrench_start: float | None = None
         self._wrench: WrenchInput | None = None
         self._now = -math.inf             # time of the latest update [s]
+        self._peak_level = 0.0            # largest left + right level of the lift so far
 
     def update(self, stamp: float, filtered: tuple[float, ...] | None, slip_flag: bool,
                holding: bool, wrench: WrenchInput | None = None, now: float | None = None
@@ -197,6 +202,7 @@ class LiftMonitor:
         levels = finger_levels(filtered)
         if levels is not None:
             self._levels.append((stamp, levels[0], levels[1], shear_index(filtered)))
+            self._peak_level = max(self._peak_level, levels[0] + levels[1])
             keep = max(p.balance_window, p.probe_window)
             while self._levels and self._levels[0][0] < stamp - keep:
                 self._levels.popleft()
@@ -221,6 +227,45 @@ class LiftMonitor:
         """The set-down probe starts: remember the shear index of the carried grip."""
         self._probe_reference = self._mean_shear() if self._levels else None
 
+    def _balance(self) -> tuple[float, float, float]:
+        """Mean left and right finger levels over the balance window and the allowed
+        difference."""
+        p = self.params
+        recent = [item for item in self._levels
+                  if item[0] >= self._levels[-1][0] - p.balance_window]
+        left = sum(item[1] for item in recent) / len(recent)
+        right = sum(item[2] for item in recent) / len(recent)
+        return left, right, p.balance_floor + p.balance_tolerance * (left + right)
+
+    def gross_slip(self, lift_height: float) -> str:
+        """Evidence, while lifting, that the fingers slide along an object that stays behind.
+
+        Parameters
+        ----------
+        lift_height : float
+            Commanded lift so far [m].
+
+        Returns
+        -------
+        str
+            The evidence with its numbers; empty when there is none.
+        """
+        p = self.params
+        if not self._levels:
+            return ''
+        left, right, allowed = self._balance()
+        if lift_height >= p.gross_slip_min_lift and abs(left - right) > allowed \
+                and min(left, right) >= p.min_finger_level:
+            return (f'finger levels {left:.4f} / {right:.4f} unequal by '
+                    f'{abs(left - right):.4f} > {allowed:.4f} after {lift_height * 1000:.1f} mm '
+                    'of lift: the table still holds the object')
+        level = left + right
+        if self._peak_level >= 2 * p.min_finger_level \
+                and level < (1.0 - p.gross_slip_decay) * self._peak_level:
+            return (f'deformation {level:.4f} fell below {1.0 - p.gross_slip_decay:g} x its '
+                    f'lift peak {self._peak_level:.4f}: the contact slides off')
+        return ''
+
     def verdict(self) -> LiftVerdict:
         """Judge the lift from the evidence so far (called when the hold is over)."""
         p = self.params
@@ -228,14 +273,10 @@ class LiftMonitor:
             return LiftVerdict(True, 'lift not verified (verify_lift off)')
         if not self._levels:
             return LiftVerdict(False, 'no tactile data during the lift to verify it')
-        recent = [item for item in self._levels
-                  if item[0] >= self._levels[-1][0] - p.balance_window]
-        left = sum(item[1] for item in recent) / len(recent)
-        right = sum(item[2] for item in recent) / len(recent)
+        left, right, allowed = self._balance()
         pattern = f'finger levels {left:.4f} / {right:.4f}'
         if min(left, right) < p.min_finger_level:
             return LiftVerdict(False, f'{pattern}: a finger is not loaded')
-        allowed = p.balance_floor + p.balance_tolerance * (left + right)
         if abs(left - right) > allowed:
             return LiftVerdict(False, f'{pattern} unequal by {abs(left - right):.4f} > '
                                f'{allowed:.4f}: the table still holds the object')

@@ -244,6 +244,14 @@ LIFT_CHECK_PARAMETERS: dict[str, ParameterSpec] = {
           MIN_FORCE, HARD_MAX_FORCE),
     _spec('loaded_current', float, 'A', 'servo current rise over free closing of a gripper '
           'closed on something', MIN_CURRENT, HARD_MAX_CURRENT),
+    _spec('gross_slip_reaction', bool, '', 'FORTE tightens while lifting when the fingers '
+          'stay unequally loaded or the deformation decays (smooth gross slip)'),
+    _spec('gross_slip_min_lift', float, 'm', 'commanded lift before unequal finger levels '
+          'count as gross slip', 0.0, 0.05),
+    _spec('gross_slip_decay', float, '', 'fall of the deformation level below its peak in '
+          'the lift that counts as gross slip', 0.01, 1.0),
+    _spec('gross_slip_interval', float, 's', 'least time between two gross-slip '
+          'tightenings', MIN_DURATION, 10.0),
     )}
 
 

@@ -190,7 +190,34 @@ class GraspPhases:
             grasp.lift.update(perception.stamp, perception.filtered,
                               perception.slip and perception.slip_active,
                               state == GraspState.HOLDING, self._latest.wrench, now)
+            if state == GraspState.LIFTING and not reacted:
+                reacted = self._tighten_on_gross_slip(now)
         return reacted, False
+
+    def _tighten_on_gross_slip(self, now: float) -> bool:
+        """FORTE, LIFTING: tighten by slip_increment on the lift monitor's gross-slip
+        evidence, at most every ``gross_slip_interval`` and never past max_tightening (no
+        fault: the lift verification judges the outcome); True if it tightened."""
+        grasp = self._grasp
+        assert grasp is not None and grasp.lift is not None
+        check, p = grasp.lift_check, grasp.params
+        if not (self._controller == Controller.FORTE and check.gross_slip_reaction):
+            return False
+        if now - grasp.last_tightening_time < max(check.gross_slip_interval, p.slip_refractory) \
+                or grasp.tightening + p.slip_increment > p.max_tightening + 1e-12:
+            return False
+        assert self._servo is not None
+        position = max(p.min_angle, self._servo.position - p.slip_increment)
+        evidence = grasp.lift.gross_slip(grasp.lift_height)
+        if not evidence or position >= self._servo.position:
+            return False
+        grasp.tightening += self._servo.position - position
+        grasp.gross_slip_events += 1
+        grasp.last_tightening_time = now
+        self._command(position, p.slip_speed)
+        self._message = f'gross slip {grasp.gross_slip_events} ({evidence}): tightened to ' \
+                        f'{position:.4f} rad'
+        return True
 
     def _tighten_on_slip(self, now: float, perception: PerceptionInput | None,
                          valid: bool) -> bool:

@@ -41,6 +41,7 @@ class GraspProgress:
     probe_since: float = 0.0           # start of the probe's settle [s]
     free_current: float | None = None  # lowest servo current while closing [A]
     slip_events: int = 0
+    gross_slip_events: int = 0         # tightenings on the lift monitor's gross-slip evidence
     tightening: float = 0.0
     lift_height: float = 0.0
     outcome: Outcome = Outcome.NONE
