@@ -88,6 +88,9 @@ PIPELINE_PARAMETERS: dict[str, tuple] = {
     'slip_alpha': (0.6, 'minimum group average variance alpha [dB^2]', (-1e3, 1e6),
                    'slip.alpha'),
     'slip_threshold': (2.0, 'slip threshold T [dB^2]', (-1e3, 1e6), 'slip.threshold'),
+    'slip_mode': ('robust', "slip detector mode: 'robust' (quantisation floor, level-shift "
+                  "veto, one finger alone; wins on the held-out slip set) or 'paper' (the "
+                  "paper's algorithm bit for bit)", None, 'slip.mode'),
     'input_limit': (1.0, 'largest valid |raw value| [normalised units; the protocol clips at '
                     '+-1024 counts = +-1.0]; beyond it, or NaN/inf, a value is invalid: its '
                     'channel is masked, the others continue', (1e-3, 1e6), 'input_limit'),
@@ -102,7 +105,8 @@ def build_config(values: dict, sample_rate: float) -> PipelineConfig:
         window=int(values['slip_window']), hop=int(values['slip_hop']),
         f_min=float(values['slip_f_min']), f_max=float(values['slip_f_max']),
         history=int(values['slip_history']), delta=float(values['slip_delta']),
-        alpha=float(values['slip_alpha']), threshold=float(values['slip_threshold']))
+        alpha=float(values['slip_alpha']), threshold=float(values['slip_threshold']),
+        mode=str(values['slip_mode']))
     config = PipelineConfig(
         fs=float(sample_rate), median_window=int(values['median_window']),
         contact_window=int(values['contact_window']),
@@ -208,6 +212,9 @@ class PerceptionNode(Node):
                     if isinstance(default, bool) != isinstance(p.value, bool):
                         return SetParametersResult(successful=False,
                                                    reason=f'{p.name} must be a boolean')
+                    if isinstance(default, str) != isinstance(p.value, str):
+                        return SetParametersResult(successful=False,
+                                                   reason=f'{p.name} must be a string')
                     values[p.name] = p.value
                     pipeline_change = True
                 elif p.name == 'model_path':

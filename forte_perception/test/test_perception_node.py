@@ -19,6 +19,7 @@ from forte_msgs.srv import Tare
 from forte_perception.force import ForceModel
 from forte_perception.perception_node import CHANNEL_NAMES, PerceptionNode
 from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
+from forte_perception.slip_params import SlipParams
 
 CHUNK = 20
 
@@ -142,12 +143,19 @@ def harness(request, model_file):
     h.close()
 
 
-def test_online_equals_offline(harness, model_file):
+@pytest.mark.parametrize('harness, mode', [([], 'robust'),
+                                           ([Parameter('slip_mode', value='paper')], 'paper')],
+                         indirect=['harness'], ids=['default', 'paper'])
+def test_online_equals_offline(harness, mode, model_file):
+    """The node is the offline pipeline, in the robust slip mode by default and in the paper
+    mode one parameter away."""
     x = stream()
     chunks = [x[i:i + CHUNK] for i in range(0, len(x), CHUNK)]
     for chunk in chunks:
         harness.send(chunk)
-    offline = PerceptionPipeline(PipelineConfig(), ForceModel.load(model_file))
+    assert harness.node._pipeline.config.slip.mode == mode
+    offline = PerceptionPipeline(PipelineConfig(slip=SlipParams(mode=mode)),
+                                 ForceModel.load(model_file))
     outs = [offline.process(c) for c in chunks]
     assert len(harness.states) == len(outs)
     for state, out in zip(harness.states, outs, strict=True):
@@ -236,15 +244,22 @@ def test_parameters_are_validated(harness, tmp_path):
     bad = node.set_parameters_atomically([Parameter('slip_f_min', value=11.0),
                                           Parameter('slip_f_max', value=14.0)])
     assert not bad.successful and 'bin' in bad.reason
+    bad = node.set_parameters([Parameter('slip_mode', value='fancy')])[0]
+    assert not bad.successful and 'mode' in bad.reason
+    bad = node.set_parameters([Parameter('slip_mode', value=1)])[0]
+    assert not bad.successful
+    assert node._pipeline.config.slip.mode == 'robust'
     bad = node.set_parameters([Parameter('model_path', value=str(tmp_path / 'none.npz'))])[0]
     assert not bad.successful and 'no such file' in bad.reason
     (tmp_path / 'junk.npz').write_bytes(b'not a model')
     bad = node.set_parameters([Parameter('model_path', value=str(tmp_path / 'junk.npz'))])[0]
     assert not bad.successful
     good = node.set_parameters_atomically([Parameter('slip_hop', value=2),
-                                           Parameter('force_rate', value=200.0)])
+                                           Parameter('force_rate', value=200.0),
+                                           Parameter('slip_mode', value='paper')])
     assert good.successful, good.reason
     assert node._pipeline.config.slip.hop == 2 and node._pipeline.config.force_step == 10
+    assert node._pipeline.config.slip.mode == 'paper'
     x = stream()
     for i in range(0, 1000, CHUNK):
         harness.send(x[i:i + CHUNK])
