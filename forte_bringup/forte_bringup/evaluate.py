@@ -4,10 +4,12 @@
    categories) x ``--trials`` trials (10 as in the paper) x the three controllers
    (On-Off, W/o Slip = NO_SLIP, FORTE), each trial a closed loop of simulator +
    perception + grasp state machine without ROS (:func:`forte_bringup.closed_loop.run_trial`),
-   spread over ``--jobs`` processes. Tables: grasp success per category and overall;
-   FORTE's trial-wise slip detection accuracy / precision / recall / F1 against the
-   simulator's ground truth; the slip detection latency distribution (true onset to the
-   first slip flag, p50 / p90 / max); the confusion matrix of each controller's own
+   spread over ``--jobs`` processes; once per slip detector mode of ``--slip-modes``
+   (``robust``, the perception node's default, and ``paper``), with every table per mode and
+   FORTE's success and slip precision of the modes side by side. Tables: grasp success
+   per category and overall; FORTE's trial-wise slip detection accuracy / precision /
+   recall / F1 against the simulator's ground truth; the slip detection latency
+   distribution (true onset to the first slip flag, p50 / p90 / max); the confusion matrix of each controller's own
    outcome against the simulator's ground-truth object state (at the end of the trial, and
    at the moment of the outcome), with the trials in which the controller contradicts the
    truth on whether the object was carried.
@@ -29,7 +31,7 @@ import os
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from multiprocessing import get_context
 from pathlib import Path
 
@@ -42,11 +44,13 @@ from forte_bringup.metrics import (
     force_table,
     latency_stats,
     latency_table,
+    mode_comparison_table,
     result_table,
     summary_json,
 )
 
 CONTROLLERS = ('ON_OFF', 'NO_SLIP', 'FORTE')
+SLIP_MODES = ('robust', 'paper')
 
 
 @dataclass(frozen=True)
@@ -58,6 +62,7 @@ class Task:
     controller: str
     trial: int
     seed: int
+    slip_mode: str = 'robust'  # slip detector mode of the perception pipeline
 
 
 def benchmark_objects(quick: bool) -> list[tuple[str, str]]:
@@ -87,9 +92,12 @@ def make_tasks(objects: Sequence[tuple[str, str]], controllers: Sequence[str], t
 def run_task(task: Task) -> TrialRecord:
     """Run one closed-loop trial (in a worker process) and condense it to a record."""
     from forte_bringup.closed_loop import run_trial
+    from forte_perception.pipeline import PipelineConfig
+    from forte_perception.slip_params import SlipParams
 
+    config = PipelineConfig(tare_duration=0.5, slip=SlipParams(mode=task.slip_mode))
     result = run_trial(object_name=task.object_name, controller=task.controller,
-                       seed=task.seed, trial=task.trial)
+                       seed=task.seed, trial=task.trial, pipeline_config=config)
     return record_from_result(result, task)
 
 
@@ -226,6 +234,8 @@ def _parser() -> argparse.ArgumentParser:
                         choices=CONTROLLERS)
     parser.add_argument('--jobs', type=int, default=os.cpu_count() or 1)
     parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--slip-modes', nargs='+', default=list(SLIP_MODES),
+                        choices=SLIP_MODES, help='slip detector modes to run (both)')
     parser.add_argument('--skip-grasp', action='store_true')
     parser.add_argument('--skip-force', action='store_true')
     parser.add_argument('--output', type=Path, default=Path('out/evaluation'))
@@ -233,51 +243,79 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def grasp_evaluation(args: argparse.Namespace, trials: int, results: dict) -> list[str]:
-    """Run the grasp benchmark of the command line ``args``, print its tables.
+    """Run the grasp benchmark of the command line ``args`` in each slip mode, print tables.
 
-    Adds ``grasp``, ``truth``, ``slip_latency``, ``trials`` and the timing to ``results``;
-    returns the markdown section.
+    Adds ``by_slip_mode`` (per mode: ``grasp``, ``truth``, ``slip_latency``, ``trials``) and
+    the timings to ``results``, and the first mode's entries also at the top level
+    (``grasp``, ``truth``, ``slip_latency``, ``trials``); returns the markdown section.
     """
     objects = benchmark_objects(args.quick)
     if args.objects:
         objects = [pair for pair in objects if pair[0] in args.objects] or [
             (name, _category_of(name)) for name in args.objects]
-    tasks = make_tasks(objects, args.controllers, trials, args.seed)
-    print(f'[evaluate] grasp benchmark: {len(objects)} objects x {trials} trials x '
-          f'{len(args.controllers)} controllers = {len(tasks)} closed-loop trials on '
-          f'{args.jobs} process(es)', flush=True)
-    started = time.monotonic()
-    records = run_benchmark(tasks, args.jobs, _progress_printer(started))
-    elapsed = time.monotonic() - started
-    results['timings']['grasp_benchmark_s'] = elapsed
+    base = make_tasks(objects, args.controllers, trials, args.seed)
+    markdown: list[str] = []
+    records_by_mode: dict[str, list[TrialRecord]] = {}
+    results['by_slip_mode'] = {}
+    for mode in args.slip_modes:
+        tasks = [replace(task, slip_mode=mode) for task in base]
+        print(f'[evaluate] grasp benchmark, slip mode {mode!r}: {len(objects)} objects x '
+              f'{trials} trials x {len(args.controllers)} controllers = {len(tasks)} '
+              f'closed-loop trials on {args.jobs} process(es)', flush=True)
+        started = time.monotonic()
+        records = run_benchmark(tasks, args.jobs, _progress_printer(started))
+        elapsed = time.monotonic() - started
+        results['timings'][f'grasp_benchmark_{mode}_s'] = elapsed
+        records_by_mode[mode] = records
+        results['by_slip_mode'][mode] = _mode_results(records, mode)
+        markdown += _mode_tables(records, mode, len(tasks), elapsed, args.jobs)
+    first = results['by_slip_mode'][args.slip_modes[0]]
+    results.update({key: first[key] for key in ('grasp', 'truth', 'slip_latency', 'trials')})
+    if len(records_by_mode) > 1:
+        table = mode_comparison_table(records_by_mode)
+        print('\nFORTE in each slip detector mode (success, trial-wise slip precision)\n'
+              + table, flush=True)
+        markdown += ['## FORTE in each slip detector mode', '', table, '']
+    return markdown
+
+
+def _mode_results(records: Sequence[TrialRecord], mode: str) -> dict:
+    """The JSON results of one slip mode's benchmark."""
     forte = [r for r in records if r.controller == 'FORTE']
     stats = latency_stats([v for r in forte for v in r.latencies],
                           sum(r.missed_onsets for r in forte))
-    results['grasp'] = summary_json(records)
-    results['truth'] = confusion_json(records)
-    results['slip_latency'] = stats
-    results['trials'] = [r.to_dict() for r in records]
+    return {'grasp': summary_json(records), 'truth': confusion_json(records),
+            'slip_latency': stats,
+            'trials': [dict(r.to_dict(), slip_mode=mode) for r in records]}
+
+
+def _mode_tables(records: Sequence[TrialRecord], mode: str, trials: int, elapsed: float,
+                 jobs: int) -> list[str]:
+    """Print one slip mode's tables; return them as markdown."""
+    forte = [r for r in records if r.controller == 'FORTE']
+    stats = latency_stats([v for r in forte for v in r.latencies],
+                          sum(r.missed_onsets for r in forte))
     table = result_table(records)
     latency = latency_table(stats)
-    print('\nGrasp success and slip detection (rows "paper": the paper\'s Table)\n'
-          + table, flush=True)
-    print('\nSlip detection latency, true onset to first flag (FORTE trials)\n' + latency,
-          flush=True)
     truth = confusion_table(records)
     truth_at_outcome = confusion_table(records, at_outcome=True)
+    print(f'\nGrasp success and slip detection, slip mode {mode!r} (rows "paper": the '
+          "paper's Table)\n" + table, flush=True)
+    print('\nSlip detection latency, true onset to first flag (FORTE trials)\n' + latency,
+          flush=True)
     print('\nController outcome against the ground-truth object state at the end of the '
           'trial (! = contradicts the truth on whether the object was carried)\n' + truth,
           flush=True)
     print('\nSame, ground truth at the moment of the outcome\n' + truth_at_outcome,
           flush=True)
-    return ['## Grasp success and slip detection', '', table, '',
-            '## Slip detection latency (onset to flag)', '', latency, '',
-            '## Controller outcome against the ground truth', '',
+    return [f'## Grasp success and slip detection (slip mode `{mode}`)', '', table, '',
+            f'## Slip detection latency, onset to flag (slip mode `{mode}`)', '', latency, '',
+            f'## Controller outcome against the ground truth (slip mode `{mode}`)', '',
             'Ground truth at the end of the trial (1 s after the outcome); `!` marks '
             'a contradiction on whether the object was carried (LIFTED vs RESTING '
             'or DROPPED, DROPPED or NOT_CARRIED vs HELD).', '', truth, '',
             'Ground truth at the moment of the outcome:', '', truth_at_outcome, '',
-            f'{len(tasks)} trials in {elapsed:.1f} s on {args.jobs} process(es).', '']
+            f'{trials} trials in {elapsed:.1f} s on {jobs} process(es).', '']
 
 
 def force_evaluation(args: argparse.Namespace, results: dict) -> list[str]:
@@ -310,7 +348,8 @@ def main(argv: list[str] | None = None) -> int:
     trials = args.trials or (2 if args.quick else 10)
     args.output.mkdir(parents=True, exist_ok=True)
     results: dict = {'config': {'quick': args.quick, 'trials': trials, 'seed': args.seed,
-                                'jobs': args.jobs, 'controllers': args.controllers},
+                                'jobs': args.jobs, 'controllers': args.controllers,
+                                'slip_modes': args.slip_modes},
                      'timings': {}}
     markdown = ['# FORTE evaluation in simulation', '']
     if not args.skip_grasp:

@@ -332,6 +332,31 @@ def result_table(records: Sequence[TrialRecord], with_paper: bool = True) -> str
     return _table(header, rows)
 
 
+def mode_comparison_table(records_by_mode: dict[str, Sequence[TrialRecord]]) -> str:
+    """FORTE's success and slip precision per category, one column pair per slip mode.
+
+    Parameters
+    ----------
+    records_by_mode : dict
+        Slip detector mode (``'robust'``, ``'paper'``) -> the benchmark's records in it.
+    """
+    summaries = {mode: summarize(records) for mode, records in records_by_mode.items()}
+    header = ['Category']
+    for mode in summaries:
+        header += [f'FORTE ({mode})', f'Prec. ({mode})']
+    categories = list(next(iter(summaries.values()))) if summaries else []
+    rows = []
+    for category in categories:
+        label = CATEGORY_LABELS.get(category, 'Overall' if category == 'overall' else category)
+        row = [label]
+        for summary in summaries.values():
+            entry = summary.get(category)
+            row += ([str(entry['success']['FORTE']), _fmt(entry['slip'].precision)]
+                    if entry else ['-', '-'])
+        rows.append(row)
+    return _table(header, rows)
+
+
 def force_table(results: dict[str, dict]) -> str:
     """Force RMSE table: rows = feature sets, columns = ours / paper.
 

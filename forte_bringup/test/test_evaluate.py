@@ -16,7 +16,7 @@ from forte_bringup.evaluate import (
     record_from_result,
     run_benchmark,
 )
-from forte_bringup.metrics import TrialRecord, summarize
+from forte_bringup.metrics import TrialRecord, mode_comparison_table, summarize
 
 
 def test_benchmark_objects_cover_the_paper_categories():
@@ -150,3 +150,29 @@ def test_quick_evaluation_end_to_end(tmp_path, capsys):
         assert entry['final']['trials'] == entry['at_outcome']['trials'] == 8
         assert sum(sum(row.values()) for row in entry['final']['matrix'].values()) == 8
     assert all(trial['object_state_at_outcome'] for trial in data['trials'])
+    # both slip detector modes, each a whole benchmark, compared side by side
+    assert data['config']['slip_modes'] == ['robust', 'paper']
+    assert set(data['by_slip_mode']) == {'robust', 'paper'}
+    for mode, entry in data['by_slip_mode'].items():
+        assert len(entry['trials']) == 24
+        assert {trial['slip_mode'] for trial in entry['trials']} == {mode}
+    assert data['trials'] == data['by_slip_mode']['robust']['trials']
+    assert 'FORTE in each slip detector mode' in printed
+    assert 'FORTE (robust)' in printed and 'Prec. (paper)' in printed
+
+
+def test_mode_comparison_table_counts_each_mode_separately():
+    """Known answer: robust lifts 2/2 with one correct flag, paper 1/2 with one false flag."""
+    def record(mode_success: bool, slip_true: bool, slip_predicted: bool) -> TrialRecord:
+        return TrialRecord(object_name='soda_can', category='slippery', controller='FORTE',
+                           trial=0, success=mode_success, outcome='LIFTED',
+                           object_state='HELD', slip_true=slip_true,
+                           slip_predicted=slip_predicted)
+
+    table = mode_comparison_table({
+        'robust': [record(True, True, True), record(True, False, False)],
+        'paper': [record(True, False, True), record(False, False, False)],
+    })
+    slippery = next(line for line in table.splitlines() if line.startswith('| Slippery'))
+    cells = [cell.strip() for cell in slippery.strip('|').split('|')]
+    assert cells == ['Slippery', '100.0% (2/2)', '1.00', '50.0% (1/2)', '0.00']
