@@ -2,17 +2,18 @@
 
 1. Grasp benchmark: every object of the simulated catalogue (31 types in the paper's 4
    categories) x ``--trials`` trials (10 as in the paper) x the three controllers
-   (On-Off, W/o Slip = NO_SLIP, FORTE), each trial a closed loop of simulator +
-   perception + grasp state machine without ROS (:func:`forte_bringup.closed_loop.run_trial`),
-   spread over ``--jobs`` processes; once per slip detector mode of ``--slip-modes``
-   (``robust``, the perception node's default, and ``paper``), with every table per mode and
-   FORTE's success and slip precision of the modes side by side. Tables: grasp success
-   per category and overall; FORTE's trial-wise slip detection accuracy / precision /
-   recall / F1 against the simulator's ground truth; the slip detection latency
-   distribution (true onset to the first slip flag, p50 / p90 / max); the confusion matrix of each controller's own
-   outcome against the simulator's ground-truth object state (at the end of the trial, and
-   at the moment of the outcome), with the trials in which the controller contradicts the
-   truth on whether the object was carried.
+   (On-Off, W/o Slip = NO_SLIP, FORTE), each trial a closed loop of simulator + perception +
+   grasp state machine without ROS (:func:`forte_bringup.closed_loop.run_trial`), spread
+   over ``--jobs`` processes; once per slip detector mode of ``--slip-modes``
+   (``robust``, the perception node's default, and ``paper``), with every table per mode
+   and FORTE's success and slip precision of the modes side by side. Tables: grasp
+   success per category and overall; FORTE's trial-wise slip detection accuracy /
+   precision / recall / F1 against the simulator's ground truth; the slip detection
+   latency distribution (true onset to the first slip flag, p50 / p90 / max); the
+   confusion matrix of each controller's own outcome against the simulator's ground-truth
+   object state (at the end of the trial, and at the moment of the outcome), with the
+   trials in which the controller contradicts the truth on whether the object was
+   carried.
 2. Force estimation: 10-fold trial-wise cross-validation of the SVR force model on the
    simulated calibration rig (6 indentors), with the history features (24) and without
    them (latest frame only, 6), as in the paper.
