@@ -237,8 +237,8 @@ class LiftMonitor:
         right = sum(item[2] for item in recent) / len(recent)
         return left, right, p.balance_floor + p.balance_tolerance * (left + right)
 
-    def gross_slip(self, lift_height: float) -> str:
-        """Evidence, while lifting, that the fingers slide along an object that stays behind.
+    def unequal_while_lifting(self, lift_height: float) -> str:
+        """Gross-slip evidence: the fingers still unequally loaded after the minimum lift.
 
         Parameters
         ----------
@@ -251,20 +251,31 @@ class LiftMonitor:
             The evidence with its numbers; empty when there is none.
         """
         p = self.params
-        if not self._levels:
+        if not self._levels or lift_height < p.gross_slip_min_lift:
             return ''
         left, right, allowed = self._balance()
-        if lift_height >= p.gross_slip_min_lift and abs(left - right) > allowed \
-                and min(left, right) >= p.min_finger_level:
-            return (f'finger levels {left:.4f} / {right:.4f} unequal by '
-                    f'{abs(left - right):.4f} > {allowed:.4f} after {lift_height * 1000:.1f} mm '
-                    'of lift: the table still holds the object')
-        level = left + right
-        if self._peak_level >= 2 * p.min_finger_level \
-                and level < (1.0 - p.gross_slip_decay) * self._peak_level:
-            return (f'deformation {level:.4f} fell below {1.0 - p.gross_slip_decay:g} x its '
-                    f'lift peak {self._peak_level:.4f}: the contact slides off')
-        return ''
+        if abs(left - right) <= allowed or min(left, right) < p.min_finger_level:
+            return ''
+        return (f'finger levels {left:.4f} / {right:.4f} unequal by {abs(left - right):.4f} > '
+                f'{allowed:.4f} after {lift_height * 1000:.1f} mm of lift: the table still '
+                'holds the object')
+
+    def deformation_decay(self) -> str:
+        """Gross-slip evidence: the deformation level fell below its lift peak.
+
+        Returns
+        -------
+        str
+            The evidence with its numbers; empty when there is none.
+        """
+        p = self.params
+        if not self._levels or self._peak_level < 2 * p.min_finger_level:
+            return ''
+        level = self._levels[-1][1] + self._levels[-1][2]
+        if level >= (1.0 - p.gross_slip_decay) * self._peak_level:
+            return ''
+        return (f'deformation {level:.4f} fell below {1.0 - p.gross_slip_decay:g} x its lift '
+                f'peak {self._peak_level:.4f}: the contact slides off')
 
     def verdict(self) -> LiftVerdict:
         """Judge the lift from the evidence so far (called when the hold is over)."""

@@ -298,4 +298,5 @@ class GraspStateMachine(GraspPhases):
             force_valid=force_valid,
             finished=finished,
             message=self._message,
+            gross_slip_events=grasp.gross_slip_events if grasp is not None else 0,
         )

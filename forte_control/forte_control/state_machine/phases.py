@@ -12,7 +12,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
-from forte_control.lift_check import DropDetector, LiftMonitor, closed_on_object_evidence
+from forte_control.lift_check import (
+    DropDetector,
+    LiftMonitor,
+    closed_on_object_evidence,
+    deformation_level,
+)
 from forte_control.state_machine.controller_params import ControllerParams
 from forte_control.state_machine.progress import GraspProgress, LatestInputs
 from forte_control.state_machine.safety import flag_names, fresh
@@ -190,26 +195,31 @@ class GraspPhases:
             grasp.lift.update(perception.stamp, perception.filtered,
                               perception.slip and perception.slip_active,
                               state == GraspState.HOLDING, self._latest.wrench, now)
-            if state == GraspState.LIFTING and not reacted:
-                reacted = self._tighten_on_gross_slip(now)
+            if state == GraspState.LIFTING:  # counted apart: not a slip flag's reaction
+                self._tighten_on_gross_slip(now)
         return reacted, False
 
     def _tighten_on_gross_slip(self, now: float) -> bool:
         """FORTE, LIFTING: tighten by slip_increment on the lift monitor's gross-slip
         evidence, at most every ``gross_slip_interval`` and never past max_tightening (no
-        fault: the lift verification judges the outcome); True if it tightened."""
+        fault: the lift verification judges the outcome); while the contact slides off
+        (deformation decay) and a tightening is still possible, the arm waits
+        (``grasp.regrip``). True if it tightened."""
         grasp = self._grasp
-        assert grasp is not None and grasp.lift is not None
+        assert grasp is not None and grasp.lift is not None and self._servo is not None
         check, p = grasp.lift_check, grasp.params
+        grasp.regrip = False
         if not (self._controller == Controller.FORTE and check.gross_slip_reaction):
             return False
-        if now - grasp.last_tightening_time < max(check.gross_slip_interval, p.slip_refractory) \
+        position = max(p.min_angle, self._servo.position - p.slip_increment)
+        if position >= self._servo.position \
                 or grasp.tightening + p.slip_increment > p.max_tightening + 1e-12:
             return False
-        assert self._servo is not None
-        position = max(p.min_angle, self._servo.position - p.slip_increment)
-        evidence = grasp.lift.gross_slip(grasp.lift_height)
-        if not evidence or position >= self._servo.position:
+        sliding_off = grasp.lift.deformation_decay()
+        grasp.regrip = bool(sliding_off)
+        evidence = sliding_off or grasp.lift.unequal_while_lifting(grasp.lift_height)
+        if not evidence or now - grasp.last_tightening_time < max(check.gross_slip_interval,
+                                                                   p.slip_refractory):
             return False
         grasp.tightening += self._servo.position - position
         grasp.gross_slip_events += 1
@@ -285,6 +295,8 @@ class GraspPhases:
             self._arm_velocity = 0.0
             self._enter(GraspState.HOLDING, now)
             self._message = f'lifted {grasp.lift_height:.4f} m, holding'
+        elif grasp.regrip:  # the contact slides off: tighten before lifting further
+            self._arm_velocity = 0.0
         else:
             self._arm_velocity = p.lift_speed
 
@@ -328,12 +340,21 @@ class GraspPhases:
         grasp.phase_start = now
 
     def _contact(self, perception: PerceptionInput | None) -> bool:
+        """Contact while closing: the perception's contact flags (either or both fingers,
+        ``contact_mode``), or a deformation level (mean |tared filtered|) of at least
+        ``contact_level``: a very soft object loads the fingers too slowly for the rate-based
+        contact flag, and closing on until the servo stops crushes it."""
         if perception is None:
             return False
         left, right = perception.contact
-        if self._grasp is not None and self._grasp.params.contact_mode == 'both':
-            return bool(left and right)
-        return bool(left or right)
+        grasp = self._grasp
+        if grasp is not None and grasp.params.contact_mode == 'both':
+            flagged = bool(left and right)
+        else:
+            flagged = bool(left or right)
+        level = deformation_level(perception.filtered)
+        return flagged or (grasp is not None and level is not None
+                           and 0.0 < grasp.params.contact_level <= level)
 
     def _update_target(self, perception: PerceptionInput) -> None:
         grasp = self._grasp

@@ -42,6 +42,7 @@ class GraspProgress:
     free_current: float | None = None  # lowest servo current while closing [A]
     slip_events: int = 0
     gross_slip_events: int = 0         # tightenings on the lift monitor's gross-slip evidence
+    regrip: bool = False               # arm waits: the contact slides off, tightening
     tightening: float = 0.0
     lift_height: float = 0.0
     outcome: Outcome = Outcome.NONE

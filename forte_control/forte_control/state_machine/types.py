@@ -187,4 +187,5 @@ class ControlOutputs:
     force_valid: bool
     finished: bool                 # the grasp reached its outcome in this step
     message: str
+    gross_slip_events: int = 0     # tightenings on gross-slip evidence in this grasp [count]
 
