@@ -116,6 +116,9 @@ CONTROLLER_PARAMETERS: dict[str, ParameterSpec] = {spec.name: spec for spec in (
           *SERVO_SPEED),
     _spec('contact_mode', str, '', "contact needed on 'either' finger (paper: any channel) "
           "or on 'both'", choices=('either', 'both')),
+    _spec('contact_level', float, '', 'contact also when the mean |tared filtered| value '
+          'reaches this while closing (a very soft object loads too slowly for the contact '
+          'flag); 0: flags only', 0.0, 2.0),
     _spec('min_angle', float, 'rad', 'most closed servo command allowed', 0.0, HARD_MAX_ANGLE),
     _spec('no_contact_settle', float, 's', 'wait at min_angle before NO_CONTACT', 0.0, 10.0),
     # loading

@@ -242,12 +242,39 @@ def test_machine_reports_no_contact_for_an_empty_gripper():
 
 
 def test_machine_reports_a_squeezed_soft_object_that_never_tripped_contact():
+    """Below contact_level (mean 0.0035 < 0.005) the closing goes on; the force estimate
+    then shows the gripper closed on something."""
     world = World()
-    world.filtered = (0.06, 0.03, 0.015) * 2  # deformed, but too slowly for the contact flag
+    world.filtered = (0.006, 0.003, 0.0015) * 2  # deformed, too slowly for the contact flag
     world.force = 0.6
     out = world.run()
     assert out.outcome == Outcome.CLOSED_ON_OBJECT
-    assert 'deformation' in out.message and 'force' in out.message
+    assert 'force' in out.message and 'deformation' not in out.message
+
+
+@pytest.mark.parametrize('contact_level, loads', [(0.005, True), (0.0, False)])
+def test_a_deformation_level_is_contact_while_closing(contact_level, loads):
+    """A soft object deforms the fingers (mean |filtered| 0.012) without tripping the
+    rate-based contact flag: at contact_level 0.005 the machine loads from there, at 0
+    (flags only) it closes fully and reports what it closed on."""
+    params = replace(state_machine.ControllerParams(), contact_level=contact_level)
+    world = World()
+    world.machine = GraspStateMachine(params)
+    world.filtered = (0.018, 0.012, 0.006) * 2
+    world.force = 0.1
+    world.start(state_machine.Controller.NO_SLIP)
+    states = set()
+    for _ in range(2000):
+        world.now += DT
+        out = world.machine.step(world.inputs(), world.now)
+        if out.servo is not None:
+            world.theta = out.servo.position
+        states.add(out.state)
+        if out.state not in (GraspState.CLOSING, GraspState.LOADING):
+            break
+    assert (GraspState.LOADING in states) is loads
+    if not loads:
+        assert out.outcome == Outcome.CLOSED_ON_OBJECT and 'deformation' in out.message
 
 
 def test_machine_reports_a_blocked_joint():

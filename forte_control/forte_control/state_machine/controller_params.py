@@ -27,6 +27,7 @@ class ControllerParams:
     # closing and contact
     closing_speed: float = 0.25             # servo command ramp while closing [rad/s]
     contact_mode: str = 'either'            # 'either' finger (paper: any channel) or 'both'
+    contact_level: float = 0.005            # or mean |tared filtered| this high (0: off) [-]
     min_angle: float = 0.0                  # most closed command allowed [rad]
     no_contact_settle: float = 0.3          # wait at min_angle before NO_CONTACT [s]
     # loading
