@@ -90,7 +90,9 @@ class TrialResult:
     slip_events : int
         Slip events the controller acted on [count].
     tightening : float
-        Total slip tightening [rad].
+        Total tightening, on slip flags and on gross-slip evidence [rad].
+    gross_slip_events : int
+        Tightenings on the lift monitor's gross-slip evidence (FORTE) [count].
     lift_height : float
         Commanded lift height integrated by the controller [m].
     slip_onset_times : list of float
@@ -131,6 +133,7 @@ class TrialResult:
     slip_events: int
     tightening: float
     lift_height: float
+    gross_slip_events: int = 0
     slip_onset_times: list[float] = field(default_factory=list)
     slip_onset_types: list[int] = field(default_factory=list)
     slip_flag_times: list[float] = field(default_factory=list)
@@ -371,6 +374,7 @@ def _trial_result(loop: _ClosedLoop, outputs, truth, identity: dict,
         max_estimated_force=(log.max_estimated if math.isfinite(log.max_estimated)
                              else math.nan),
         slip_events=int(outputs.slip_events), tightening=float(outputs.tightening),
+        gross_slip_events=int(outputs.gross_slip_events),
         lift_height=float(outputs.lift_height), slip_onset_times=log.onset_times,
         slip_onset_types=log.onset_types, slip_flag_times=log.flag_times,
         slip_reaction_times=log.reaction_times,
@@ -409,7 +413,8 @@ def run_trial(object_name: str, controller, seed: int = 0,
         Force model; default :func:`default_force_model` (not needed by ON_OFF, but the
         pipeline still estimates force for the record when one is given or cached).
     pipeline_config : forte_perception.pipeline.PipelineConfig, optional
-        Default: the paper's parameters with ``tare_duration``.
+        Default: the paper's parameters with ``tare_duration`` and the perception node's
+        default slip mode (``forte_perception.slip_params.RECOMMENDED_MODE``).
     chunk_samples : int
         Samples per perception update (20 = 10 ms).
     warmup : float
@@ -440,6 +445,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
     """
     from forte_driver.sim import make_scene
     from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
+    from forte_perception.slip_params import RECOMMENDED_MODE, SlipParams
 
     wall_start = time.perf_counter()
     kind = _controller(controller)
@@ -449,7 +455,8 @@ def run_trial(object_name: str, controller, seed: int = 0,
         raise ValueError(f'warmup {warmup} s must exceed tare_duration {tare_duration} s')
     if model is None:  # ON_OFF uses it too (outcome only), so all controllers see the same
         model = default_force_model()
-    config = pipeline_config or PipelineConfig(tare_duration=tare_duration)
+    config = pipeline_config or PipelineConfig(tare_duration=tare_duration,
+                                               slip=SlipParams(mode=RECOMMENDED_MODE))
     pipeline = PerceptionPipeline(config, model)
     scene = make_scene('grasp', object_name=object_name, seed=seed, trial=trial)
     machine = GraspStateMachine(params or ControllerParams(), lift_check)

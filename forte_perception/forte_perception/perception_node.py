@@ -58,6 +58,7 @@ from forte_perception.channel_health import channel_report
 from forte_perception.force import ForceModel
 from forte_perception.pipeline import PerceptionOutput, PerceptionPipeline, PipelineConfig
 from forte_perception.slip import SlipParams
+from forte_perception.slip_params import RECOMMENDED_MODE
 from forte_ros import run_node
 from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
 from forte_ros.parameters import parameter_descriptor
@@ -88,7 +89,7 @@ PIPELINE_PARAMETERS: dict[str, tuple] = {
     'slip_alpha': (0.6, 'minimum group average variance alpha [dB^2]', (-1e3, 1e6),
                    'slip.alpha'),
     'slip_threshold': (2.0, 'slip threshold T [dB^2]', (-1e3, 1e6), 'slip.threshold'),
-    'slip_mode': ('robust', "slip detector mode: 'robust' (quantisation floor, level-shift "
+    'slip_mode': (RECOMMENDED_MODE, "slip detector mode: 'robust' (quantisation floor, level-shift "
                   "veto, one finger alone; wins on the held-out slip set) or 'paper' (the "
                   "paper's algorithm bit for bit)", None, 'slip.mode'),
     'input_limit': (1.0, 'largest valid |raw value| [normalised units; the protocol clips at '

@@ -11,12 +11,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ['FINGER_CHANNELS', 'MODES', 'N_CHANNELS', 'NonFiniteInputError', 'SlipFeatures',
-           'SlipParams', 'bins_in_band', 'check_frames']
+__all__ = ['FINGER_CHANNELS', 'MODES', 'N_CHANNELS', 'RECOMMENDED_MODE', 'NonFiniteInputError',
+           'SlipFeatures', 'SlipParams', 'bins_in_band', 'check_frames']
 
 N_CHANNELS = 6
 #: Detector modes (:attr:`SlipParams.mode`).
 MODES = ('paper', 'robust')
+#: The mode that wins on the held-out part of the slip evaluation set (docs/perception.md):
+#: the perception node's default and the closed loop's. ``SlipParams()`` stays ``'paper'``.
+RECOMMENDED_MODE = 'robust'
 FINGER_CHANNELS = ((0, 1, 2), (3, 4, 5))
 
 
