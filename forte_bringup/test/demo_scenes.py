@@ -10,10 +10,13 @@ outcome and truth for perception updates of 10, 20, 30 and 40 samples (a timing
 perturbation of the order of the graph's transport delays). The soda can's seed 0, used
 before, is a race for FORTE between stick-slip episodes and tightenings (+0.88 deg per slip
 until the slip stops): on the table, hanging after sliding 28 mm down the fingers, or lifted,
-depending on the batch size alone, and over DDS from run to run. Of the soda can's seeds
-0-15, 8 are single-outcome for FORTE (all NOT_CARRIED: the can slides smoothly once the
-tightenings start) and 8 are races; of the glass bottle's seeds 0-8, 7 are single-outcome
-(all LIFTED).
+depending on the batch size alone, and over DDS from run to run. With the paper's detector
+and no gross-slip reaction, 8 of the soda can's seeds 0-15 were single-outcome for FORTE
+(all NOT_CARRIED); with the robust detector and the gross-slip reaction (issue 14) 9 are
+(3, 4, 6, 7, 9, 11, 12, 13, 15: all LIFTED, HELD) and 7 are races; seed 13 stays the demo's.
+Of the glass bottle's seeds 0-8, 7 were single-outcome (all LIFTED); seed 0 still is, for
+all three controllers, as are the raspberry's seed 0 and the soda can's seed 13 for NO_SLIP
+and ON_OFF (batch sizes 10, 20, 30, 40).
 """
 from __future__ import annotations
 
@@ -27,8 +30,10 @@ EXPECTED = {
     ('raspberry', 'ON_OFF'): ('LIFTED', 'CRUSHED'),
     # 385 g, slippery: 0.25 N cannot lift it, the fingers slide up the can that stays on the
     # table (the controller used to say LIFTED); FORTE tightens on the first slips, then the
-    # can slides smoothly (no more stick-slip to hear); ON_OFF squeezes hard enough
-    ('soda_can', 'FORTE'): ('NOT_CARRIED', 'RESTING'),
+    # can slides smoothly (no more stick-slip to hear) but stays pinned against one finger:
+    # FORTE's gross-slip reaction (unequal levels while lifting) tightens until it is carried
+    # (before issue 14: NOT_CARRIED, RESTING); ON_OFF squeezes hard enough
+    ('soda_can', 'FORTE'): ('LIFTED', 'HELD'),
     ('soda_can', 'NO_SLIP'): ('NOT_CARRIED', 'RESTING'),
     ('soda_can', 'ON_OFF'): ('LIFTED', 'HELD'),
     # 200 g, slippery: FORTE's tightenings on slip lift it, NO_SLIP cannot, ON_OFF can

@@ -13,7 +13,12 @@ from demo_scenes import EXPECTED, closed_loop_results, mismatches
 
 from forte_bringup.closed_loop import _controller, run_trial
 from forte_bringup.sim_force_model import default_force_model
-from forte_control.state_machine import PAPER_SLIP_INCREMENT, Controller, GraspState
+from forte_control.state_machine import (
+    PAPER_SLIP_INCREMENT,
+    Controller,
+    ControllerParams,
+    GraspState,
+)
 
 pytestmark = pytest.mark.slow  # the whole module takes ~1 min with the model training
 
@@ -47,8 +52,11 @@ def test_forte_lifts_a_slippery_object_that_no_slip_drops(model, slippery_forte)
     for forte in lifted:
         assert forte.object_state == 'HELD' and forte.outcome == 'LIFTED'
         assert forte.final_height >= 0.005
-        assert forte.slip_events >= 1 and forte.slip_true and forte.slip_predicted
-        assert forte.tightening == pytest.approx(forte.slip_events * PAPER_SLIP_INCREMENT)
+        # tightened on slip flags or on gross-slip evidence (issue 14), one increment each
+        assert forte.slip_events + forte.gross_slip_events >= 1 and forte.slip_true
+        assert forte.tightening == pytest.approx(
+            (forte.slip_events + forte.gross_slip_events) * PAPER_SLIP_INCREMENT)
+    assert any(forte.slip_predicted and forte.slip_events for forte in lifted)
     for seed, forte in zip(SLIPPERY_SEEDS, slippery_forte):
         no_slip = run_trial(SLIPPERY, 'NO_SLIP', seed=seed, model=model)
         assert not no_slip.success
@@ -81,9 +89,15 @@ def test_slip_tightening_goes_out_within_one_perception_update(slippery_forte):
         index = int(np.flatnonzero(np.isclose(traces['time'], reaction))[0])
         assert traces['servo_command'][index] == pytest.approx(
             traces['servo_command'][index - 1] - PAPER_SLIP_INCREMENT)
-    # the first slip flag during the lift is acted on (nothing in the refractory period yet)
-    lift_flags = [t for t in r.slip_flag_times if t >= r.lift_start_time]
-    assert lift_flags and math.isclose(lift_flags[0], r.slip_reaction_times[0])
+    # the first slip flag of the lift with no tightening (on a flag or on gross-slip
+    # evidence) within slip_refractory before it (boundary included: stamps are floats)
+    # is acted on
+    steps = np.flatnonzero(np.diff(traces['servo_command']) < -1e-9) + 1
+    tightened = [traces['time'][i] for i in steps if traces['time'][i] >= r.lift_start_time]
+    refractory = ControllerParams().slip_refractory
+    free = [t for t in r.slip_flag_times if t >= r.lift_start_time
+            and not any(0.0 < t - s < refractory + 1e-9 for s in tightened)]
+    assert free and math.isclose(free[0], r.slip_reaction_times[0])
 
 
 def test_traces_are_consistent(fragile_forte):
