@@ -221,10 +221,8 @@ class GraspPhases:
         if not evidence or now - grasp.last_tightening_time < max(check.gross_slip_interval,
                                                                    p.slip_refractory):
             return False
-        grasp.tightening += self._servo.position - position
         grasp.gross_slip_events += 1
-        grasp.last_tightening_time = now
-        self._command(position, p.slip_speed)
+        self._tighten_to(now, position)
         self._message = f'gross slip {grasp.gross_slip_events} ({evidence}): tightened to ' \
                         f'{position:.4f} rad'
         return True
@@ -249,12 +247,18 @@ class GraspPhases:
             return False
         assert self._servo is not None
         position = max(p.min_angle, self._servo.position - p.slip_increment)
-        grasp.tightening += self._servo.position - position
         grasp.slip_events += 1
-        grasp.last_tightening_time = now
-        self._command(position, p.slip_speed)
+        self._tighten_to(now, position)
         self._message = f'slip {grasp.slip_events}: tightened to {position:.4f} rad'
         return True
+
+    def _tighten_to(self, now: float, position: float) -> None:
+        """Command a tightening to ``position`` [rad] at slip_speed and account for it."""
+        grasp = self._grasp
+        assert grasp is not None and self._servo is not None
+        grasp.tightening += self._servo.position - position
+        grasp.last_tightening_time = now
+        self._command(position, grasp.params.slip_speed)
 
     def _hold(self, now: float) -> None:
         """HOLDING: arm still for hold_duration, then the set-down probe, then the verdict."""
