@@ -21,6 +21,12 @@ Rule (documented in docs/perception.md):
 - ``psd_max_db`` of channel c is NaN when its own PSD window (reach ``N + M - 1``) holds a
   substituted sample.
 
+In the robust mode (:mod:`forte_perception.slip_robust`) a finger may also flag alone, as
+unmasked: its group average (usable channels) above ``single_threshold`` with at least
+``single_min_rising`` usable channels rising with a variance of at least alpha. The
+quantisation floor is in the PSD features already; the level-shift veto is not applied to
+masked updates (it needs every channel's level).
+
 Decisions are guarded as the detector's own: a masked update whose smallest usable
 difference is within ``guard_db`` of delta, or an available group average within
 ``guard_variance`` of alpha or T, is re-decided from ``scipy.signal.welch`` PSDs of its whole
@@ -39,7 +45,8 @@ __all__ = ['SlipMask', 'decide_slip_masked']
 
 def decide_slip_masked(history: np.ndarray, usable: np.ndarray, params: SlipParams
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The paper's decision on the usable channels of m updates.
+    """The decision (paper, or robust with one finger alone) on the usable channels of m
+    updates.
 
     Parameters
     ----------
@@ -74,11 +81,20 @@ def decide_slip_masked(history: np.ndarray, usable: np.ndarray, params: SlipPara
         groups[:, f] = np.where(count > 0, cv[:, channels].sum(axis=1) / np.maximum(count, 1),
                                 np.nan)
     passes = np.where(available, groups >= params.alpha, True).all(axis=1)
-    gated = np.where(passes[:, None], groups, np.where(available, 0.0, np.nan))
+    keep = np.repeat(passes[:, None], 2, axis=1)
+    if params.robust:  # one finger alone: enough usable channels rising by >= alpha each
+        strong = cv >= params.alpha
+        for f, channels in enumerate(FINGER_CHANNELS):
+            alone = strong[:, channels].sum(axis=1) >= int(params.single_min_rising)
+            keep[:, f] |= alone & (groups[:, f] > params.single_threshold)
+    gated = np.where(keep, groups, np.where(available, 0.0, np.nan))
     slip = (np.where(available, gated, -np.inf) > params.threshold).any(axis=1)
     g = params.guard_variance
     near = ((np.abs(groups - params.alpha) <= g * max(1.0, abs(params.alpha)))
             | (np.abs(groups - params.threshold) <= g * max(1.0, abs(params.threshold))))
+    if params.robust:
+        single = params.single_threshold
+        near |= np.abs(groups - single) <= g * max(1.0, abs(single))
     border = (near & available).any(axis=1)
     border |= ((np.abs(min_diff - params.delta) <= params.guard_db) & usable).any(axis=1)
     return np.where(usable, cv, np.nan), gated, slip, border

@@ -136,3 +136,50 @@ def test_paper_mode_ignores_the_robust_parameters():
 def test_robust_parameters_are_validated(bad):
     with pytest.raises(ValueError):
         replace(ROBUST, **bad).validate(FS)
+
+
+def rising_history(rising_channels, m: int = 1, slope: float = 1.0) -> np.ndarray:
+    """(m, V, 6) psd_max_db histories: the given channels rise by ``slope`` dB per update
+    (moving variance slope^2 (V^2 - 1) / 12 = 18.7 dB^2 for V = 15), the others flat."""
+    v = ROBUST.history
+    h = np.full((m, v, 6), -60.0)
+    for c in rising_channels:
+        h[:, :, c] += slope * np.arange(v)
+    return h
+
+
+@pytest.mark.parametrize('rising, robust_flags', [((0, 1), True), ((0,), False)])
+def test_masked_updates_let_one_finger_flag_alone_in_robust_mode(rising, robust_flags):
+    """Right root channel masked, left finger bursting: two left channels rising by 1 dB per
+    update give a left average of 12.4 dB^2 > 3 (single_threshold) with two channels above
+    alpha: the robust rule flags, the paper's alpha gate (right finger at 0) does not; one
+    rising channel (6.2 dB^2) is not enough in either mode."""
+    from forte_perception.slip_mask import decide_slip_masked
+
+    usable = np.ones((1, 6), bool)
+    usable[0, 5] = False
+    history = rising_history(rising)
+    assert decide_slip_masked(history, usable, ROBUST)[2][0] == robust_flags
+    assert not decide_slip_masked(history, usable, PAPER)[2][0]
+
+
+@pytest.mark.parametrize('params', [PAPER, ROBUST], ids=['paper', 'robust'])
+def test_masked_rule_with_every_channel_usable_is_the_detectors_rule(params):
+    """Random rising patterns and slopes: the masked decision with all six channels usable
+    equals the detector's decision (slip_decision.decide_slip) in both modes."""
+    from forte_perception.slip_decision import decide_slip
+    from forte_perception.slip_mask import decide_slip_masked
+
+    rng = np.random.default_rng(7)
+    m = 400
+    history = np.full((m, params.history, 6), -60.0)
+    steps = np.arange(params.history)
+    for i in range(m):
+        for c in np.flatnonzero(rng.random(6) < 0.4):
+            history[i, :, c] += rng.uniform(0.05, 1.5) * steps
+    history += rng.normal(scale=0.01, size=history.shape)
+    usable = np.ones((m, 6), bool)
+    masked = decide_slip_masked(history, usable, params)[2]
+    unmasked = decide_slip(history, params)[2]
+    assert masked.any() and not masked.all()
+    np.testing.assert_array_equal(masked, unmasked)
