@@ -413,8 +413,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
         Force model; default :func:`default_force_model` (not needed by ON_OFF, but the
         pipeline still estimates force for the record when one is given or cached).
     pipeline_config : forte_perception.pipeline.PipelineConfig, optional
-        Default: the paper's parameters with ``tare_duration`` and the perception node's
-        default slip mode (``forte_perception.slip_params.RECOMMENDED_MODE``).
+        Default: the paper's, ``tare_duration``, the node's slip mode (RECOMMENDED_MODE).
     chunk_samples : int
         Samples per perception update (20 = 10 ms).
     warmup : float
@@ -455,8 +454,8 @@ def run_trial(object_name: str, controller, seed: int = 0,
         raise ValueError(f'warmup {warmup} s must exceed tare_duration {tare_duration} s')
     if model is None:  # ON_OFF uses it too (outcome only), so all controllers see the same
         model = default_force_model()
-    config = pipeline_config or PipelineConfig(tare_duration=tare_duration,
-                                               slip=SlipParams(mode=RECOMMENDED_MODE))
+    config = pipeline_config or PipelineConfig(
+        tare_duration=tare_duration, slip=SlipParams(mode=RECOMMENDED_MODE))
     pipeline = PerceptionPipeline(config, model)
     scene = make_scene('grasp', object_name=object_name, seed=seed, trial=trial)
     machine = GraspStateMachine(params or ControllerParams(), lift_check)
