@@ -40,7 +40,6 @@ def _decide_rest(h: list[np.ndarray], min_diff: np.ndarray, params: SlipParams
     """
     if params.robust:
         return _decide_rest_robust(h, min_diff, params)
-    v = len(h)
     shape = min_diff.shape
     md = min_diff.reshape(shape[0], -1)
     m = md.shape[1]
@@ -58,20 +57,9 @@ def _decide_rest(h: list[np.ndarray], min_diff: np.ndarray, params: SlipParams
     finger_raw = np.zeros((2, m))
     slip = np.zeros(m, bool)
     if cols.size:
-        flat = [np.asarray(x).reshape(x.shape[0], -1) for x in h]
         if cols.size * 4 > m:  # many: contiguous slices beat gathering
             cols = np.arange(m)
-            hs = flat
-        else:
-            hs = [x[:, cols] for x in flat]
-        total = hs[0].copy()
-        for i in range(1, v):
-            total = total + hs[i]
-        mean = total / v
-        sq = (hs[0] - mean) ** 2
-        for i in range(1, v):
-            sq = sq + (hs[i] - mean) ** 2
-        cv = np.where(rising[:, cols] & both[cols], sq / v, 0.0)
+        cv = _rising_variance(h, rising & both, cols, m)
         left = (cv[0] + cv[1] + cv[2]) / 3.0
         right = (cv[3] + cv[4] + cv[5]) / 3.0
         gate = (left >= params.alpha) & (right >= params.alpha)
@@ -87,7 +75,7 @@ def _rising_variance(h: list[np.ndarray], rising: np.ndarray, cols: np.ndarray, 
                      ) -> np.ndarray:
     """Moving variance (0 where the channel does not rise) of the updates ``cols``, (6, c).
 
-    The paper path's arithmetic (same order, so the same bits for the same values).
+    One arithmetic order for both modes, so the same values give the same bits.
     """
     v = len(h)
     flat = [np.asarray(x).reshape(x.shape[0], -1) for x in h]
