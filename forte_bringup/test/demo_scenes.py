@@ -43,8 +43,28 @@ EXPECTED = {
 }
 
 
-def mismatches(got: dict[tuple[str, str], tuple[str, str]]) -> dict:
+#: Grasps whose outcome over DDS is a race between two honest outcomes (the controller agrees
+#: with the truth in both): (object, controller) -> the other outcome the graph may end in.
+#: FORTE catches the soda can of seed 13 after 14-17 tightenings (2-3 on slip flags, 12-14 on
+#: gross-slip evidence, closed loop with batches of 10, 20 and 40 samples) out of the 20 that
+#: max_tightening allows: over DDS, message timing changes how many fit before the lift
+#: ends (one CI run on a loaded machine: NOT_CARRIED, RESTING). The closed loop is
+#: deterministic and must give EXPECTED exactly.
+GRAPH_RACES = {
+    ('soda_can', 'FORTE'): ('NOT_CARRIED', 'RESTING'),
+}
+
+
+def mismatches(got: dict[tuple[str, str], tuple[str, str]], graph: bool = False) -> dict:
     """Grasps whose (outcome, ground-truth object state) differ from :data:`EXPECTED`.
+
+    Parameters
+    ----------
+    got : dict
+        (object, controller) -> (outcome, object state).
+    graph : bool
+        The grasps ran over DDS: a grasp of :data:`GRAPH_RACES` may also end in its race's
+        other honest outcome.
 
     Returns
     -------
@@ -52,7 +72,8 @@ def mismatches(got: dict[tuple[str, str], tuple[str, str]]) -> dict:
         (object, controller) -> (what happened, what was expected); empty when all agree.
     """
     return {key: (got.get(key), expected) for key, expected in EXPECTED.items()
-            if got.get(key) != expected}
+            if got.get(key) != expected
+            and not (graph and got.get(key) == GRAPH_RACES.get(key))}
 
 
 def closed_loop_results(model) -> dict[tuple[str, str], tuple[str, str]]:

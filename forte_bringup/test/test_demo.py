@@ -3,9 +3,10 @@
 Each grasp's outcome is checked against the simulator's ground truth (``sim/ground_truth``,
 recorded by the demo after the result; the controller never sees it): the exact outcome and
 object state each scripted grasp must end in, from the physics of the scene
-(``demo_scenes.EXPECTED``, which also says how the scenes were chosen). The same nine scenes
-run through ``run_trial`` (the closed loop of the evaluation) must give the same pattern: the
-numbers of the evaluation are those of the graph.
+(``demo_scenes.EXPECTED``, which also says how the scenes were chosen; ``GRAPH_RACES``: the
+one grasp whose outcome over DDS may take either of two honest branches). The same nine
+scenes run through ``run_trial`` (the closed loop of the evaluation) must give the same
+pattern: the numbers of the evaluation are those of the graph.
 """
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import subprocess
 import sys
 
 import pytest
-from demo_scenes import EXPECTED, closed_loop_results, mismatches
+from demo_scenes import EXPECTED, GRAPH_RACES, closed_loop_results, mismatches
 from mcap.reader import make_reader
 
 from forte_bringup.demo import DEFAULT_CONTROLLERS, DEFAULT_OBJECTS
@@ -34,11 +35,14 @@ def test_demo_grasps_end_as_the_physics_says_and_the_report_shows_them(tmp_path)
     rows = json.loads((output / 'outcomes.json').read_text())
     graph = {(r['object'], r['controller']): (r['outcome'], r['object_state']) for r in rows}
     messages = {(r['object'], r['controller']): r.get('message', '') for r in rows}
-    wrong = mismatches(graph)
+    wrong = mismatches(graph, graph=True)
     assert not wrong, {key: (*value, messages.get(key)) for key, value in wrong.items()}
-    # the closed loop on the same scenes: the same outcome and truth for every grasp
+    # the closed loop on the same scenes: the same outcome and truth for every grasp (but a
+    # documented race, where the graph may take the other honest branch)
     closed_loop = closed_loop_results(default_force_model())
-    assert closed_loop == graph
+    assert not mismatches(closed_loop)
+    assert {key: value for key, value in closed_loop.items() if key not in GRAPH_RACES} == {
+        key: value for key, value in graph.items() if key not in GRAPH_RACES}
     for row in rows:  # the claim comes with its evidence
         if row['outcome'] == 'LIFTED':
             assert 'equal' in row['message'] and 'when set down' in row['message']
