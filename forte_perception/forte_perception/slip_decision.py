@@ -36,22 +36,17 @@ def _decide_rest(h: list[np.ndarray], min_diff: np.ndarray, params: SlipParams
 
     ``h``: V arrays (6, m) (or (6, ...)), ``min_diff`` (6, ...). The variance matters only
     where some channel rises monotonically (rare in practice), so it is computed for those
-    updates only (same arithmetic per element, so the same bits).
+    updates only (same arithmetic per element, so the same bits). In the robust mode a
+    finger may also pass alone: its group average above ``single_threshold`` with at least
+    ``single_min_rising`` of its channels rising with a variance of at least alpha
+    (:mod:`forte_perception.slip_robust`).
     """
-    if params.robust:
-        return _decide_rest_robust(h, min_diff, params)
     shape = min_diff.shape
     md = min_diff.reshape(shape[0], -1)
     m = md.shape[1]
     rising = md > params.delta
-    # the group averages pass the alpha gate only if both groups have a rising channel
-    # (a channel's variance is 0 unless it rises; alpha > 0): compute variances there only
-    if params.alpha > 0.0:
-        both = rising[0] | rising[1] | rising[2]
-        both &= rising[3] | rising[4] | rising[5]
-    else:
-        both = np.ones(m, bool)
-    cols = np.nonzero(both)[0]
+    both, candidate = _candidates(rising, params)
+    cols = np.nonzero(candidate)[0]
     channel_variance = np.zeros((N_CHANNELS, m))
     finger = np.zeros((2, m))
     finger_raw = np.zeros((2, m))
@@ -59,16 +54,45 @@ def _decide_rest(h: list[np.ndarray], min_diff: np.ndarray, params: SlipParams
     if cols.size:
         if cols.size * 4 > m:  # many: contiguous slices beat gathering
             cols = np.arange(m)
-        cv = _rising_variance(h, rising & both, cols, m)
+        cv = _rising_variance(h, rising & candidate, cols, m)  # 0 off the candidates
         left = (cv[0] + cv[1] + cv[2]) / 3.0
         right = (cv[3] + cv[4] + cv[5]) / 3.0
-        gate = (left >= params.alpha) & (right >= params.alpha)
+        gate = both[cols] & (left >= params.alpha) & (right >= params.alpha)
+        keep_left, keep_right = gate, gate
+        if params.robust:  # alone: enough channels of the finger rise by >= alpha each
+            strong = cv >= params.alpha
+            k = int(params.single_min_rising)
+            single = params.single_threshold
+            keep_left = gate | (((strong[0].astype(np.int8) + strong[1] + strong[2]) >= k)
+                                & (left > single))
+            keep_right = gate | (((strong[3].astype(np.int8) + strong[4] + strong[5]) >= k)
+                                 & (right > single))
         channel_variance[:, cols] = cv
         finger_raw[:, cols] = np.stack([left, right], axis=0)
-        finger[:, cols] = np.where(gate, finger_raw[:, cols], 0.0)
+        finger[0, cols] = np.where(keep_left, left, 0.0)
+        finger[1, cols] = np.where(keep_right, right, 0.0)
         slip[cols] = np.maximum(finger[0, cols], finger[1, cols]) > params.threshold
     return (channel_variance.reshape(shape), finger.reshape((2,) + shape[1:]),
             slip.reshape(shape[1:]), min_diff, finger_raw.reshape((2,) + shape[1:]))
+
+
+def _candidates(rising: np.ndarray, params: SlipParams) -> tuple[np.ndarray, np.ndarray]:
+    """Updates where both fingers have a rising channel, and those whose decision needs the
+    variances, each (m,), bool.
+
+    The group averages pass the alpha gate only if both groups have a rising channel (a
+    channel's variance is 0 unless it rises; alpha > 0); in the robust mode a finger with
+    ``single_min_rising`` rising channels is a candidate alone.
+    """
+    count = [rising[0].astype(np.int8) + rising[1] + rising[2],
+             rising[3].astype(np.int8) + rising[4] + rising[5]]
+    both = (count[0] > 0) & (count[1] > 0)
+    if not params.robust:
+        if params.alpha <= 0.0:
+            both = np.ones(rising.shape[1], bool)
+        return both, both
+    k = int(params.single_min_rising)
+    return both, both | (count[0] >= k) | (count[1] >= k)
 
 
 def _rising_variance(h: list[np.ndarray], rising: np.ndarray, cols: np.ndarray, m: int
@@ -88,49 +112,6 @@ def _rising_variance(h: list[np.ndarray], rising: np.ndarray, cols: np.ndarray, 
     for i in range(1, v):
         sq = sq + (hs[i] - mean) ** 2
     return np.where(rising[:, cols], sq / v, 0.0)
-
-
-def _decide_rest_robust(h: list[np.ndarray], min_diff: np.ndarray, params: SlipParams
-                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_decide_rest` of the robust mode: the paper's two-finger rule, or one finger
-    alone above ``single_threshold`` with ``single_min_rising`` rising channels
-    (:mod:`forte_perception.slip_robust`). Same outputs."""
-    shape = min_diff.shape
-    md = min_diff.reshape(shape[0], -1)
-    m = md.shape[1]
-    rising = md > params.delta
-    count = [rising[0].astype(np.int8) + rising[1] + rising[2],
-             rising[3].astype(np.int8) + rising[4] + rising[5]]
-    both = (count[0] > 0) & (count[1] > 0)
-    alone = [c >= int(params.single_min_rising) for c in count]
-    candidate = both | alone[0] | alone[1]
-    cols = np.nonzero(candidate)[0]
-    channel_variance = np.zeros((N_CHANNELS, m))
-    finger = np.zeros((2, m))
-    finger_raw = np.zeros((2, m))
-    slip = np.zeros(m, bool)
-    if cols.size:
-        if cols.size * 4 > m:
-            cols = np.arange(m)
-        cv = _rising_variance(h, rising & candidate, cols, m)  # 0 off the candidates
-        left = (cv[0] + cv[1] + cv[2]) / 3.0
-        right = (cv[3] + cv[4] + cv[5]) / 3.0
-        gate = both[cols] & (left >= params.alpha) & (right >= params.alpha)
-        # alone: enough channels of the finger rise with a variance of at least alpha each
-        strong = cv >= params.alpha
-        k = int(params.single_min_rising)
-        alone_l = (strong[0].astype(np.int8) + strong[1] + strong[2]) >= k
-        alone_r = (strong[3].astype(np.int8) + strong[4] + strong[5]) >= k
-        single = params.single_threshold
-        keep_left = gate | (alone_l & (left > single))
-        keep_right = gate | (alone_r & (right > single))
-        channel_variance[:, cols] = cv
-        finger_raw[:, cols] = np.stack([left, right], axis=0)
-        finger[0, cols] = np.where(keep_left, left, 0.0)
-        finger[1, cols] = np.where(keep_right, right, 0.0)
-        slip[cols] = np.maximum(finger[0, cols], finger[1, cols]) > params.threshold
-    return (channel_variance.reshape(shape), finger.reshape((2,) + shape[1:]),
-            slip.reshape(shape[1:]), min_diff, finger_raw.reshape((2,) + shape[1:]))
 
 
 def decide_slip(history: np.ndarray, params: SlipParams
