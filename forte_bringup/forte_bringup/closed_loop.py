@@ -387,12 +387,25 @@ def _trial_result(loop: _ClosedLoop, outputs, truth, identity: dict,
         traces=traces)
 
 
+def _pipeline(config, tare_duration: float, slip_mode: str | None, model):
+    """The trial's perception pipeline: ``config``, or the paper's parameters with
+    ``tare_duration`` [s] and ``slip_mode`` (default: the node's, RECOMMENDED_MODE)."""
+    from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
+    from forte_perception.slip_params import RECOMMENDED_MODE, SlipParams
+
+    if config is None:
+        config = PipelineConfig(tare_duration=tare_duration,
+                                slip=SlipParams(mode=slip_mode or RECOMMENDED_MODE))
+    return PerceptionPipeline(config, model)
+
+
 def run_trial(object_name: str, controller, seed: int = 0,
               params: ControllerParams | None = None, *, trial: int = 0,
               goal: GraspGoal | None = None, model=None, pipeline_config=None,
               chunk_samples: int = 20, warmup: float = 0.6, tare_duration: float = 0.5,
               settle: float = 1.0, max_duration: float = 60.0, success_height: float = 0.005,
-              record_traces: bool = False, lift_check=None) -> TrialResult:
+              record_traces: bool = False, lift_check=None, slip_mode: str | None = None
+              ) -> TrialResult:
     """Run one closed-loop grasp trial of ``object_name`` with ``controller``.
 
     Parameters
@@ -413,7 +426,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
         Force model; default :func:`default_force_model` (not needed by ON_OFF, but the
         pipeline still estimates force for the record when one is given or cached).
     pipeline_config : forte_perception.pipeline.PipelineConfig, optional
-        Default: the paper's, ``tare_duration``, the node's slip mode (RECOMMENDED_MODE).
+        Default: the paper's, ``tare_duration``, ``slip_mode``.
     chunk_samples : int
         Samples per perception update (20 = 10 ms).
     warmup : float
@@ -429,6 +442,9 @@ def run_trial(object_name: str, controller, seed: int = 0,
     lift_check : forte_control.lift_check.LiftCheckParams, optional
         Thresholds of the lift verification (default: its defaults; ``verify_lift=False``
         for the controller before it, which claimed LIFTED from the commanded lift alone).
+    slip_mode : str, optional
+        Slip detector mode of the default pipeline configuration (default: the node's,
+        ``forte_perception.slip_params.RECOMMENDED_MODE``).
     record_traces : bool
         Keep per-update traces (``TrialResult.traces``): ``time`` (k,) [s since goal],
         ``filtered`` (k, 6), ``force_estimate`` (k,) [N] (NaN if invalid), ``force_true``
@@ -443,8 +459,6 @@ def run_trial(object_name: str, controller, seed: int = 0,
     TrialResult
     """
     from forte_driver.sim import make_scene
-    from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
-    from forte_perception.slip_params import RECOMMENDED_MODE, SlipParams
 
     wall_start = time.perf_counter()
     kind = _controller(controller)
@@ -454,9 +468,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
         raise ValueError(f'warmup {warmup} s must exceed tare_duration {tare_duration} s')
     if model is None:  # ON_OFF uses it too (outcome only), so all controllers see the same
         model = default_force_model()
-    config = pipeline_config or PipelineConfig(
-        tare_duration=tare_duration, slip=SlipParams(mode=RECOMMENDED_MODE))
-    pipeline = PerceptionPipeline(config, model)
+    pipeline = _pipeline(pipeline_config, tare_duration, slip_mode, model)
     scene = make_scene('grasp', object_name=object_name, seed=seed, trial=trial)
     machine = GraspStateMachine(params or ControllerParams(), lift_check)
     loop = _ClosedLoop(scene, pipeline, machine, chunk_samples, record_traces)

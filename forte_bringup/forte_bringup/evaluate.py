@@ -49,9 +49,11 @@ from forte_bringup.metrics import (
     result_table,
     summary_json,
 )
+from forte_perception.slip_params import MODES, RECOMMENDED_MODE
 
 CONTROLLERS = ('ON_OFF', 'NO_SLIP', 'FORTE')
-SLIP_MODES = ('robust', 'paper')
+#: Slip modes of the benchmark: the node's default first, then the others (the paper's).
+SLIP_MODES = (RECOMMENDED_MODE, *(mode for mode in MODES if mode != RECOMMENDED_MODE))
 
 
 @dataclass(frozen=True)
@@ -63,7 +65,7 @@ class Task:
     controller: str
     trial: int
     seed: int
-    slip_mode: str = 'robust'  # slip detector mode of the perception pipeline
+    slip_mode: str = RECOMMENDED_MODE  # slip detector mode of the perception pipeline
 
 
 def benchmark_objects(quick: bool) -> list[tuple[str, str]]:
@@ -93,12 +95,9 @@ def make_tasks(objects: Sequence[tuple[str, str]], controllers: Sequence[str], t
 def run_task(task: Task) -> TrialRecord:
     """Run one closed-loop trial (in a worker process) and condense it to a record."""
     from forte_bringup.closed_loop import run_trial
-    from forte_perception.pipeline import PipelineConfig
-    from forte_perception.slip_params import SlipParams
 
-    config = PipelineConfig(tare_duration=0.5, slip=SlipParams(mode=task.slip_mode))
     result = run_trial(object_name=task.object_name, controller=task.controller,
-                       seed=task.seed, trial=task.trial, pipeline_config=config)
+                       seed=task.seed, trial=task.trial, slip_mode=task.slip_mode)
     return record_from_result(result, task)
 
 
@@ -269,7 +268,9 @@ def grasp_evaluation(args: argparse.Namespace, trials: int, results: dict) -> li
         results['timings'][f'grasp_benchmark_{mode}_s'] = elapsed
         records_by_mode[mode] = records
         results['by_slip_mode'][mode] = _mode_results(records, mode)
-        markdown += _mode_tables(records, mode, len(tasks), elapsed, args.jobs)
+        markdown += _mode_tables(records, mode, results['by_slip_mode'][mode]['slip_latency'],
+                                 f'{len(tasks)} trials in {elapsed:.1f} s on {args.jobs} '
+                                 'process(es).')
     first = results['by_slip_mode'][args.slip_modes[0]]
     results.update({key: first[key] for key in ('grasp', 'truth', 'slip_latency', 'trials')})
     if len(records_by_mode) > 1:
@@ -290,12 +291,10 @@ def _mode_results(records: Sequence[TrialRecord], mode: str) -> dict:
             'trials': [dict(r.to_dict(), slip_mode=mode) for r in records]}
 
 
-def _mode_tables(records: Sequence[TrialRecord], mode: str, trials: int, elapsed: float,
-                 jobs: int) -> list[str]:
-    """Print one slip mode's tables; return them as markdown."""
-    forte = [r for r in records if r.controller == 'FORTE']
-    stats = latency_stats([v for r in forte for v in r.latencies],
-                          sum(r.missed_onsets for r in forte))
+def _mode_tables(records: Sequence[TrialRecord], mode: str, stats: dict[str, float],
+                 timing: str) -> list[str]:
+    """Print one slip mode's tables (``stats``: its FORTE slip latency statistics); return
+    them as markdown, ending with the ``timing`` line."""
     table = result_table(records)
     latency = latency_table(stats)
     truth = confusion_table(records)
@@ -316,7 +315,7 @@ def _mode_tables(records: Sequence[TrialRecord], mode: str, trials: int, elapsed
             'a contradiction on whether the object was carried (LIFTED vs RESTING '
             'or DROPPED, DROPPED or NOT_CARRIED vs HELD).', '', truth, '',
             'Ground truth at the moment of the outcome:', '', truth_at_outcome, '',
-            f'{trials} trials in {elapsed:.1f} s on {jobs} process(es).', '']
+            timing, '']
 
 
 def force_evaluation(args: argparse.Namespace, results: dict) -> list[str]:

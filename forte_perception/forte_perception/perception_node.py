@@ -89,9 +89,9 @@ PIPELINE_PARAMETERS: dict[str, tuple] = {
     'slip_alpha': (0.6, 'minimum group average variance alpha [dB^2]', (-1e3, 1e6),
                    'slip.alpha'),
     'slip_threshold': (2.0, 'slip threshold T [dB^2]', (-1e3, 1e6), 'slip.threshold'),
-    'slip_mode': (RECOMMENDED_MODE, "slip detector mode: 'robust' (quantisation floor, level-shift "
-                  "veto, one finger alone; wins on the held-out slip set) or 'paper' (the "
-                  "paper's algorithm bit for bit)", None, 'slip.mode'),
+    'slip_mode': (RECOMMENDED_MODE, "slip detector mode: 'robust' (quantisation floor, "
+                  "level-shift veto, one finger alone; wins on the held-out slip set) or "
+                  "'paper' (the paper's algorithm bit for bit)", None, 'slip.mode'),
     'input_limit': (1.0, 'largest valid |raw value| [normalised units; the protocol clips at '
                     '+-1024 counts = +-1.0]; beyond it, or NaN/inf, a value is invalid: its '
                     'channel is masked, the others continue', (1e-3, 1e6), 'input_limit'),
@@ -210,12 +210,10 @@ class PerceptionNode(Node):
             for p in parameters:
                 if p.name in PIPELINE_PARAMETERS:
                     default = PIPELINE_PARAMETERS[p.name][0]
-                    if isinstance(default, bool) != isinstance(p.value, bool):
-                        return SetParametersResult(successful=False,
-                                                   reason=f'{p.name} must be a boolean')
-                    if isinstance(default, str) != isinstance(p.value, str):
-                        return SetParametersResult(successful=False,
-                                                   reason=f'{p.name} must be a string')
+                    for kind, word in ((bool, 'a boolean'), (str, 'a string')):
+                        if isinstance(default, kind) != isinstance(p.value, kind):
+                            return SetParametersResult(successful=False,
+                                                       reason=f'{p.name} must be {word}')
                     values[p.name] = p.value
                     pipeline_change = True
                 elif p.name == 'model_path':

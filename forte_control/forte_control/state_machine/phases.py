@@ -199,33 +199,32 @@ class GraspPhases:
                 self._tighten_on_gross_slip(now)
         return reacted, False
 
-    def _tighten_on_gross_slip(self, now: float) -> bool:
+    def _tighten_on_gross_slip(self, now: float) -> None:
         """FORTE, LIFTING: tighten by slip_increment on the lift monitor's gross-slip
         evidence, at most every ``gross_slip_interval`` and never past max_tightening (no
         fault: the lift verification judges the outcome); while the contact slides off
         (deformation decay) and a tightening is still possible, the arm waits
-        (``grasp.regrip``). True if it tightened."""
+        (``grasp.regrip``)."""
         grasp = self._grasp
         assert grasp is not None and grasp.lift is not None and self._servo is not None
         check, p = grasp.lift_check, grasp.params
         grasp.regrip = False
         if not (self._controller == Controller.FORTE and check.gross_slip_reaction):
-            return False
+            return
         position = max(p.min_angle, self._servo.position - p.slip_increment)
         if position >= self._servo.position \
                 or grasp.tightening + p.slip_increment > p.max_tightening + 1e-12:
-            return False
+            return
         sliding_off = grasp.lift.deformation_decay()
         grasp.regrip = bool(sliding_off)
         evidence = sliding_off or grasp.lift.unequal_while_lifting(grasp.lift_height)
         if not evidence or now - grasp.last_tightening_time < max(check.gross_slip_interval,
                                                                    p.slip_refractory):
-            return False
+            return
         grasp.gross_slip_events += 1
         self._tighten_to(now, position)
         self._message = f'gross slip {grasp.gross_slip_events} ({evidence}): tightened to ' \
                         f'{position:.4f} rad'
-        return True
 
     def _tighten_on_slip(self, now: float, perception: PerceptionInput | None,
                          valid: bool) -> bool:
