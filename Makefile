@@ -28,7 +28,7 @@ test-firmware:
 
 ## lint: ruff over every Python package
 lint:
-	@$(ENV) && cd $(ROOT) && ruff check $$(ls -d forte_msgs forte_driver forte_perception forte_control forte_bringup hardware benchmarks tools conftest.py 2>/dev/null) && echo "[lint] ruff: clean"
+	@$(ENV) && cd $(ROOT) && ruff check $$(ls -d forte_ros forte_msgs forte_driver forte_sim forte_perception forte_control forte_bringup hardware benchmarks tools conftest.py 2>/dev/null) && echo "[lint] ruff: clean"
 
 ## demo: the simulated FORTE scene with the full graph (see README)
 demo: setup

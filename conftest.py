@@ -4,15 +4,10 @@ Before any test imports rclpy, confine DDS discovery to loopback and give this p
 process a domain id of its own, so that tests never send multicast to the network and
 concurrent test runs on one machine never see each other's nodes.
 
-The isolation module is loaded from its file, not imported as ``forte_bringup``: under
-``colcon test`` each package's tests run with only that package's dependencies on the path,
-and this file (the rootdir conftest of every package) must work for all of them.
+:mod:`forte_ros.isolation` is pure Python and imports nothing of ROS; every package declares
+forte_ros as a dependency (a test dependency for forte_msgs), so under ``colcon test``,
+where each package's tests see only its own dependencies, this import works for all.
 """
-import importlib.util
-from pathlib import Path
+from forte_ros.isolation import isolate_ros_network
 
-_SOURCE = Path(__file__).resolve().parent / 'forte_bringup' / 'forte_bringup' / 'ros_isolation.py'
-_spec = importlib.util.spec_from_file_location('forte_test_ros_isolation', _SOURCE)
-_module = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_module)
-_module.isolate_ros_network()
+isolate_ros_network()

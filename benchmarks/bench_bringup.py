@@ -20,6 +20,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 
 from forte_driver.replay.bags import BagWriter, TopicSpec, read_bag
 from forte_msgs.msg import TactileFrames
+from forte_ros.contract import CHANNEL_NAMES
 
 MESSAGES = 6000  # 60 s at 100 messages/s
 RECORDED_SECONDS = MESSAGES / 100.0
@@ -31,8 +32,7 @@ def payloads() -> list[bytes]:
     for index in range(MESSAGES):
         message = TactileFrames(sample_count=20, sample_period=0.0005,
                                 first_sequence=20 * index)
-        message.channel_names = ['left_distal', 'left_middle', 'left_root', 'right_distal',
-                                 'right_middle', 'right_root']
+        message.channel_names = list(CHANNEL_NAMES)
         message.data = rng.normal(0.0, 0.01, 120).tolist()
         out.append(serialize_message(message))
     return out

@@ -21,7 +21,7 @@ import sys
 import threading
 import time
 
-from forte_bringup.ros_isolation import isolate_ros_network
+from forte_ros.isolation import isolate_ros_network
 
 isolate_ros_network()
 
@@ -81,8 +81,8 @@ def bench_step(n: int = 20000) -> None:
 def bench_closed_loop() -> None:
     from forte_bringup.closed_loop import run_trial
     from forte_bringup.sim_force_model import default_force_model
-    from forte_driver.sim import make_scene
     from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
+    from forte_sim import make_scene
 
     start = time.perf_counter()
     model = default_force_model()
@@ -269,7 +269,7 @@ def _start_controller(env: dict) -> subprocess.Popen:
     for name, value in LATENCY_CONTROLLER_PARAMETERS.items():
         args += ['-p', f'{name}:={value}']
     return subprocess.Popen(
-        [sys.executable, '-m', 'forte_control.grasp_controller_node', *args], env=env,
+        [sys.executable, '-m', 'forte_control.ros.grasp_controller_node', *args], env=env,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
@@ -362,7 +362,7 @@ def bench_latency_in_process(events: int = 200) -> None:
     import rclpy
     from rclpy.parameter import Parameter
 
-    from forte_control.grasp_controller_node import GraspControllerNode
+    from forte_control.ros.grasp_controller_node import GraspControllerNode
     from forte_msgs.msg import TactileState
 
     rclpy.init()

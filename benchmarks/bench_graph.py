@@ -9,8 +9,8 @@ time from ``/proc/<pid>/stat`` (utime + stime, in % of one core) over each phase
   reset and auto-tare); the outcome of every grasp and the ground truth are counted, and any
   STALE_* fault is reported;
 - **hardware**: the emulated tactile sensor and the simulated Dynamixel pair on
-  pseudo-terminals (``forte_driver.bench_devices.emulated_sensor``,
-  ``forte_driver.bench_devices.simulated_servo``),
+  pseudo-terminals (``forte_sim.bench_devices.emulated_sensor``,
+  ``forte_sim.bench_devices.simulated_servo``),
   idle;
 - **replay**: a bag of a quiet sensor (``graph_probe.write_quiet_bag``) replayed at its
   recorded rate.
@@ -49,8 +49,8 @@ sys.path.insert(0, str(HERE.parent / 'forte_bringup' / 'test'))  # graph_probe: 
 
 from bench_perception_node import ECHO_NODE, proc_cpu_seconds  # noqa: E402
 
-from forte_bringup.ros_isolation import isolate_ros_network  # noqa: E402
 from forte_ros import call_in_executor  # noqa: E402
+from forte_ros.isolation import isolate_ros_network  # noqa: E402
 
 OUTCOME_STALE = 'STALE'
 

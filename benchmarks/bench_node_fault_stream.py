@@ -43,7 +43,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'forte_driver' / 'test' / 'serial'))
 
-from forte_bringup.ros_isolation import isolate_ros_network  # noqa: E402
+from forte_ros.isolation import isolate_ros_network  # noqa: E402
 
 isolate_ros_network()
 
@@ -223,7 +223,7 @@ def expected_counters(generator: OneStartSessionGenerator, rows: list) -> dict[s
 
 
 def start_node(link: str, batch_size: int, log) -> subprocess.Popen:
-    command = [sys.executable, '-m', 'forte_driver.serial.serial_sensor_node', '--ros-args',
+    command = [sys.executable, '-m', 'forte_driver.ros.serial_sensor_node', '--ros-args',
                '-p', f'port:={link}', '-p', 'autostart:=true', '-p', 'reliable:=true',
                '-p', 'diagnostics_period:=0.5', '-p', f'batch_size:={batch_size}']
     return subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, cwd=str(ROOT))

@@ -25,7 +25,6 @@ except ImportError:  # pragma: no cover
     def threadpool_limits(limits=None):
         return nullcontext()
 
-FS = 2000.0
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'forte_perception'))
 
@@ -34,12 +33,14 @@ from forte_perception.force import (  # noqa: E402
     ForceModel,
     window_lengths,
 )
-from forte_perception.slip import (  # noqa: E402
+from forte_perception.slip.detector import (  # noqa: E402
     SlipDetector,
     SlipParams,
     slip_features,
     slip_features_reference,
 )
+from forte_ros.contract import CHANNEL_NAMES  # noqa: E402
+from forte_ros.contract import SAMPLE_RATE as FS  # noqa: E402
 
 
 def sensor_recording(seconds: float, seed: int = 0) -> np.ndarray:
@@ -100,22 +101,22 @@ def bench_slip(quick: bool) -> dict:
     print('\n## Slip features (N=400, hop=4, 10-50 Hz, V=15), single thread')
     seconds = 30.0 if quick else 60.0
     x = sensor_recording(seconds, seed=1)
-    params = SlipParams()
+    params = SlipParams(mode='paper')  # the paper's detector, as the baseline implements
     # ours (batch) and the numpy baseline (on a slice: the same per-window work everywhere)
     # alternate, and the least disturbed of the rounds counts for each (shared machines)
     base_seconds = 5.0 if quick else 10.0
     xb = x[:int(base_seconds * FS)]
     t_ours = t_base = np.inf
     for _ in range(3):
-        t_ours = min(t_ours, cpu_time(lambda: slip_features(x), 1))
+        t_ours = min(t_ours, cpu_time(lambda: slip_features(x, params=params), 1))
         t_base = min(t_base, cpu_time(lambda: straightforward_psd(xb, params), 1)
                      * (seconds / base_seconds))
-    fast = slip_features(x)
+    fast = slip_features(x, params=params)
     t_welch_s = 2.0
-    t_welch = cpu_time(lambda: slip_features_reference(x[:int(t_welch_s * FS)]), 1) * \
-        (seconds / t_welch_s)
+    t_welch = cpu_time(lambda: slip_features_reference(x[:int(t_welch_s * FS)], params=params),
+                       1) * (seconds / t_welch_s)
     # accuracy against scipy.signal.welch (vectorised reference), decisions too
-    ref = slip_features_reference(x, vectorized=True)
+    ref = slip_features_reference(x, params=params, vectorized=True)
     err = float(np.abs(fast.psd_max_db - ref.psd_max_db).max())
     base_psd = straightforward_psd(xb, params)
     err_base = float(np.abs(base_psd - fast.psd_max_db[:base_psd.shape[0]]).max())
@@ -130,7 +131,7 @@ def bench_slip(quick: bool) -> dict:
     lat = lat[100:]
     base_lat: list[float] = []
     straightforward_psd(x[:int(4 * FS)], params, timings=base_lat)
-    hop1 = SlipParams(hop=1)
+    hop1 = SlipParams(mode='paper', hop=1)
     x1 = x[:int(min(seconds, 30.0) * FS)]
     t_hop1 = cpu_time(lambda: slip_features(x1, params=hop1), 2)
     print(f'recording {seconds:.0f} s ({fast.sample_index.size} updates, '
@@ -154,12 +155,12 @@ def calibration_rows():
     trials), or from a made-up sensor when the simulator is not installed."""
     from forte_perception.calibration import make_rows
     try:
-        from forte_driver.sim.dataset import QUICK_PROTOCOL, generate_calibration_dataset
+        from forte_sim.dataset import QUICK_PROTOCOL, generate_calibration_dataset
         dataset = generate_calibration_dataset(QUICK_PROTOCOL)
-        source = 'simulated calibration rig (forte_driver.sim, 6 indentors x 8 trials)'
+        source = 'simulated calibration rig (forte_sim, 6 indentors x 8 trials)'
     except ImportError:
         dataset = synthetic_dataset()
-        source = 'synthetic trials (forte_driver.sim not installed)'
+        source = 'synthetic trials (forte_sim not installed)'
     return make_rows(dataset, stride=200), dataset, source
 
 
@@ -182,8 +183,7 @@ def synthetic_dataset(n_trials: int = 48, seconds: float = 8.0, seed: int = 0) -
     return {'frames': np.concatenate(frames), 'force': np.concatenate(force),
             'trial': np.concatenate(trial), 'indentor': np.concatenate(indentor),
             'indentor_names': np.array([f'shape{i}' for i in range(6)]), 'fs': FS,
-            'channel_names': np.array(['left_distal', 'left_middle', 'left_root',
-                                       'right_distal', 'right_middle', 'right_root']),
+            'channel_names': np.array(CHANNEL_NAMES),
             'tare_samples': 2000}
 
 

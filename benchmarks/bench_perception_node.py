@@ -1,7 +1,7 @@
 """Perception node benchmark: CPU share and input-to-output latency at 2 kHz input, and
 resident memory growth over one hour of input (fed faster than real time).
 
-The node runs in its own process (``python -m forte_perception.perception_node``); this
+The node runs in its own process (``python -m forte_perception.ros.perception_node``); this
 process publishes tactile/frames and receives tactile/state over DDS. Baseline, measured in
 the same run: an echo node that republishes an empty TactileState per frame message (the
 ROS transport and message conversion floor).
@@ -22,7 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-FS = 2000.0
+from forte_ros.contract import CHANNEL_NAMES
+from forte_ros.contract import SAMPLE_RATE as FS
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 
@@ -129,8 +131,7 @@ class Client:
         msg.header.stamp.nanosec = (first % 2000) * 500_000
         msg.first_sequence = first
         msg.sample_period = 1.0 / FS
-        msg.channel_names = ['left_distal', 'left_middle', 'left_root', 'right_distal',
-                             'right_middle', 'right_root']
+        msg.channel_names = list(CHANNEL_NAMES)
         msg.sample_count = rows.shape[0]
         msg.data = np.ascontiguousarray(rows, np.float64).ravel()
         last = first + rows.shape[0] - 1
@@ -154,7 +155,7 @@ def start_node(kind: str, model: Path, log) -> subprocess.Popen:
     if kind == 'echo':
         cmd = [sys.executable, '-c', ECHO_NODE]
     else:
-        cmd = [sys.executable, '-m', 'forte_perception.perception_node', '--ros-args',
+        cmd = [sys.executable, '-m', 'forte_perception.ros.perception_node', '--ros-args',
                '-p', f'model_path:={model}', '-p', 'stale_timeout:=30.0']
     return subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=str(ROOT))
 
@@ -244,7 +245,7 @@ def set_parameter(client: Client, name: str, value: float) -> None:
 
 
 def bench_node(quick: bool = False) -> None:
-    from forte_bringup.ros_isolation import isolate_ros_network
+    from forte_ros.isolation import isolate_ros_network
     isolate_ros_network()
     import rclpy
     print('\n## Perception node over DDS (node in its own process, 20-sample messages at '

@@ -1,4 +1,4 @@
-"""Benchmark of the simulated FORTE scenes (forte_driver.sim) on one core.
+"""Benchmark of the simulated FORTE scenes (forte_sim) on one core.
 
 Times are CPU seconds of this process (one core), so other jobs on the machine do not
 inflate them. Prints, each against a baseline measured in the same run:
@@ -23,10 +23,9 @@ import time
 for variable in ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS'):
     os.environ.setdefault(variable, '1')
 
-from forte_driver.sim import make_scene  # noqa: E402
-from forte_driver.sim.dataset import QUICK_PROTOCOL, generate_calibration_dataset  # noqa: E402
-
-FS = 2000
+from forte_ros.contract import SAMPLE_RATE as FS  # noqa: E402
+from forte_sim import make_scene  # noqa: E402
+from forte_sim.dataset import QUICK_PROTOCOL, generate_calibration_dataset  # noqa: E402
 
 
 def best_of(function, repeats: int = 3) -> float:
@@ -131,13 +130,13 @@ def section_dataset() -> None:
 
 
 def section_node() -> None:
-    from forte_bringup.ros_isolation import isolate_ros_network
+    from forte_ros.isolation import isolate_ros_network
 
     isolate_ros_network()
     import rclpy
     from rclpy.parameter import Parameter
 
-    from forte_driver.sim.sim_node import SimNode
+    from forte_sim.ros.sim_node import SimNode
 
     rclpy.init()
     try:

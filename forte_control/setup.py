@@ -32,7 +32,7 @@ setup(
     extras_require={'test': ['pytest']},
     entry_points={
         'console_scripts': [
-            'grasp_controller_node = forte_control.grasp_controller_node:main',
+            'grasp_controller_node = forte_control.ros.grasp_controller_node:main',
         ],
     },
 )

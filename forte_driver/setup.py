@@ -27,20 +27,16 @@ setup(
     maintainer='FORTE maintainers',
     maintainer_email='maintainers@forte-gripper.org',
     description=(
-        'Sources of FORTE tactile frames and actuators: serial sensor driver (binary and '
-        'legacy ASCII protocol), Dynamixel gripper driver, simulated scene, bag replay.'
+        'FORTE on real devices and bags: serial sensor driver (binary and legacy ASCII '
+        'protocol), Dynamixel gripper driver, bag recording, reading and replay.'
     ),
     license='Apache-2.0',
     extras_require={'test': ['pytest']},
     entry_points={
         'console_scripts': [
-            'serial_sensor_node = forte_driver.serial.serial_sensor_node:main',
-            'gripper_driver_node = forte_driver.dynamixel.gripper_driver_node:main',
-            'sim_node = forte_driver.sim.sim_node:main',
-            'bag_replay_node = forte_driver.replay.bag_replay_node:main',
-            'forte_emulated_sensor = forte_driver.bench_devices.emulated_sensor:main',
-            'forte_simulated_servo = forte_driver.bench_devices.simulated_servo:main',
-            'forte_sim_dataset = forte_driver.sim.dataset_tool:main',
+            'serial_sensor_node = forte_driver.ros.serial_sensor_node:main',
+            'gripper_driver_node = forte_driver.ros.gripper_driver_node:main',
+            'bag_replay_node = forte_driver.ros.bag_replay_node:main',
         ],
     },
 )

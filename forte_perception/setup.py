@@ -34,7 +34,7 @@ setup(
     extras_require={'test': ['pytest']},
     entry_points={
         'console_scripts': [
-            'perception_node = forte_perception.perception_node:main',
+            'perception_node = forte_perception.ros.perception_node:main',
             'forte_train_force = forte_perception.tools.train_force:main',
             'forte_evaluate_slip = forte_perception.tools.evaluate_slip:main',
         ],

@@ -13,7 +13,7 @@
 #   shared/ros2-launch-kit) it also gets launch, launch_ros, launch_pytest, the ros2 command
 #   line, and the composition_interfaces and control_msgs interfaces, built into
 #   .venv/opt/ros2_launch_kit; the kit is remembered, later runs need not name it again.
-# Then `colcon build --symlink-install` builds the five FORTE packages into install/ (the
+# Then `colcon build --symlink-install` builds the seven FORTE packages into install/ (the
 # same command a ROS user types); `source install/setup.bash` gives the whole environment.
 #
 # Idempotent: every step writes a stamp holding the hash of its inputs and is skipped when
@@ -24,7 +24,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 venv="$root/.venv"
 stamps="$venv/.forte-stamps"
 kit_prefix="$venv/opt/ros2_launch_kit"
-packages=(forte_msgs forte_driver forte_perception forte_control forte_bringup)
+packages=(forte_ros forte_msgs forte_driver forte_sim forte_perception forte_control forte_bringup)
 
 say() { printf '[setup] %s\n' "$*"; }
 die() { printf '[setup] ERROR: %s\n' "$*" >&2; exit 1; }
@@ -166,7 +166,7 @@ done
 # 6. the workspace: colcon build --symlink-install, as on a robot ---------------------------
 # (symlinked sources need no rebuild; new files installed by CMake or setup.py do)
 ws_hash=$(hash_of $(for p in "${packages[@]}"; do ls "$root/$p"/{setup.py,setup.cfg,package.xml,CMakeLists.txt} \
-  "$root/$p"/msg/* "$root/$p"/srv/* "$root/$p"/action/* "$root/$p"/forte_ros/*.py 2>/dev/null; done) \
+  "$root/$p"/msg/* "$root/$p"/srv/* "$root/$p"/action/* 2>/dev/null; done) \
   "$venv/local_setup.bash"; ls "$root"/forte_*/{launch,config}/* 2>/dev/null)
 if ! stamp_ok workspace "$ws_hash" || [ ! -f "$root/install/setup.bash" ]; then
   say "colcon build --symlink-install (${packages[*]}; first run: about a minute)"
@@ -192,7 +192,7 @@ fi
   # shellcheck disable=SC1091
   source "$root/install/setup.bash"
   set -u
-  python -c 'import rclpy, forte_msgs.msg, forte_msgs.srv, forte_msgs.action, forte_driver, forte_perception, forte_control, forte_bringup' \
+  python -c 'import rclpy, forte_msgs.msg, forte_msgs.srv, forte_msgs.action, forte_ros, forte_driver, forte_sim, forte_perception, forte_control, forte_bringup' \
     || die "rclpy + the FORTE packages do not import after setup"
   if [ -d "$kit_prefix" ]; then
     python -c 'import launch, launch_ros, launch_pytest, control_msgs.action' \

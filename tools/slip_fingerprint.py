@@ -1,8 +1,9 @@
 """Fingerprint of the slip detector's outputs, to prove a change leaves a mode bit for bit.
 
 Hashes (SHA-256 of the raw bytes) every output array of
-:func:`forte_perception.slip.slip_features`, of :class:`~forte_perception.slip.SlipDetector`
-fed in odd chunks, of :func:`~forte_perception.slip.slip_features_reference` and of the
+:func:`forte_perception.slip.detector.slip_features`, of
+:class:`~forte_perception.slip.detector.SlipDetector` fed in odd chunks, of
+:func:`~forte_perception.slip.detector.slip_features_reference` and of the
 :class:`~forte_perception.pipeline.PerceptionPipeline` (per-chunk slip, activity, finger
 variances, PSD and filtered values, with one masked stretch) on seeded signals: quiet and
 quantised (below 1 LSB of noise), slip-like bursts on all channels, one-finger bursts, a
@@ -12,7 +13,7 @@ ramp with a step, and random walks. Run it before and after a change and compare
     ... change ...
     python tools/slip_fingerprint.py > after.txt && diff before.txt after.txt
 
-``--mode`` picks the :class:`~forte_perception.slip.SlipParams` mode (default: the
+``--mode`` picks the :class:`~forte_perception.slip.detector.SlipParams` mode (default: the
 dataclass default, i.e. whatever a caller who passes no mode gets).
 """
 from __future__ import annotations
@@ -25,16 +26,16 @@ import numpy as np
 from scipy import signal
 
 from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
-from forte_perception.slip import (
+from forte_perception.slip.detector import (
     SlipDetector,
     SlipFeatures,
     SlipParams,
     slip_features,
     slip_features_reference,
 )
-
-FS = 2000.0
-LSB = 2.0 / 2048.0
+from forte_ros.contract import FINGER_CHANNELS
+from forte_ros.contract import QUANTUM as LSB
+from forte_ros.contract import SAMPLE_RATE as FS
 
 
 def _quantise(x: np.ndarray) -> np.ndarray:
@@ -68,7 +69,7 @@ def signals() -> dict[str, np.ndarray]:
         rng = np.random.default_rng(300 + seed)
         out[f'bursts_left_{seed}'] = _quantise(
             0.1 + rng.normal(size=(n, 6)) * 1.5 * LSB
-            + _bursts(n, rng, (0, 1, 2), (2500, 8000), 60 * LSB))
+            + _bursts(n, rng, FINGER_CHANNELS[0], (2500, 8000), 60 * LSB))
         rng = np.random.default_rng(400 + seed)
         ramp = np.clip((np.arange(n) - 4000) / 4000.0, 0, 1)[:, None] * 80 * LSB
         step = (np.arange(n) >= 9000)[:, None] * 30 * LSB

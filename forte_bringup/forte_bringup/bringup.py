@@ -19,7 +19,7 @@ Usage::
 Arguments are the launch files' (``name:=value``; ``forte_bringup <graph> --help`` lists
 them). ROS network: unless ``--domain-id`` is given or ``ROS_DOMAIN_ID`` is set, a free
 domain id is reserved; discovery is always confined to this machine
-(:func:`forte_bringup.ros_isolation.isolate_ros_network`). The id is printed so that other
+(:func:`forte_ros.isolation.isolate_ros_network`). The id is printed so that other
 terminals can join (``export ROS_DOMAIN_ID=<id> ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``).
 """
 from __future__ import annotations
@@ -47,7 +47,7 @@ from forte_bringup.graph import (
     parameter_text,
     params_file,
 )
-from forte_bringup.ros_isolation import isolate_ros_network
+from forte_ros.isolation import isolate_ros_network
 
 #: lifecycle_msgs/msg/Transition ids used here.
 TRANSITION_CONFIGURE = 1

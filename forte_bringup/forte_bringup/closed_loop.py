@@ -220,7 +220,7 @@ class _TrialLog:
 
     def sense(self, out, truth, t: float, t0: float) -> None:
         """The chunk's true slip onsets, slip flag and largest true and estimated forces."""
-        from forte_driver.sim import SAMPLE_PERIOD
+        from forte_ros.contract import SAMPLE_PERIOD
 
         first_time = truth.first_index * SAMPLE_PERIOD - t0
         for index, kind_of_onset in zip(truth.slip_onset_indices, truth.slip_onset_types):
@@ -292,7 +292,7 @@ class _ClosedLoop:
         Returns the last chunk's perception output and ground truth; sets :attr:`t0`, the
         time of the last warm-up sample.
         """
-        from forte_driver.sim import SAMPLE_PERIOD
+        from forte_ros.contract import SAMPLE_PERIOD
 
         chunks = int(math.ceil(seconds / (self.chunk_samples * SAMPLE_PERIOD)))
         out = truth = None
@@ -316,7 +316,7 @@ class _ClosedLoop:
 
         Returns the machine's last outputs and the last chunk's ground truth.
         """
-        from forte_driver.sim import SAMPLE_PERIOD
+        from forte_ros.contract import SAMPLE_PERIOD
 
         machine, commands, log = self.machine, self.commands, self.log
         end_time = max_duration
@@ -391,7 +391,7 @@ def _pipeline(config, tare_duration: float, slip_mode: str | None, model):
     """The trial's perception pipeline: ``config``, or the paper's parameters with
     ``tare_duration`` [s] and ``slip_mode`` (default: the node's, RECOMMENDED_MODE)."""
     from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
-    from forte_perception.slip_params import RECOMMENDED_MODE, SlipParams
+    from forte_perception.slip.params import RECOMMENDED_MODE, SlipParams
 
     if config is None:
         config = PipelineConfig(tare_duration=tare_duration,
@@ -411,7 +411,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
     Parameters
     ----------
     object_name : str
-        An object of ``forte_driver.sim.OBJECTS``.
+        An object of ``forte_sim.OBJECTS``.
     controller : str, int or Controller
         'FORTE', 'NO_SLIP' (the paper's W/o Slip) or 'ON_OFF'.
     seed : int
@@ -439,12 +439,12 @@ def run_trial(object_name: str, controller, seed: int = 0,
         Bound on the simulated grasp time [s].
     success_height : float
         Minimum true object height for success [m].
-    lift_check : forte_control.lift_check.LiftCheckParams, optional
+    lift_check : forte_control.state_machine.lift_check.LiftCheckParams, optional
         Thresholds of the lift verification (default: its defaults; ``verify_lift=False``
         for the controller before it, which claimed LIFTED from the commanded lift alone).
     slip_mode : str, optional
         Slip detector mode of the default pipeline configuration (default: the node's,
-        ``forte_perception.slip_params.RECOMMENDED_MODE``).
+        ``forte_perception.slip.params.RECOMMENDED_MODE``).
     record_traces : bool
         Keep per-update traces (``TrialResult.traces``): ``time`` (k,) [s since goal],
         ``filtered`` (k, 6), ``force_estimate`` (k,) [N] (NaN if invalid), ``force_true``
@@ -458,7 +458,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
     -------
     TrialResult
     """
-    from forte_driver.sim import make_scene
+    from forte_sim import make_scene
 
     wall_start = time.perf_counter()
     kind = _controller(controller)

@@ -341,7 +341,7 @@ def main(argv: list[str] | None = None) -> int:
                         help='simulated seconds per wall second (the graph runs on /clock)')
     args = parser.parse_args(argv)
 
-    from forte_bringup.ros_isolation import isolate_ros_network
+    from forte_ros.isolation import isolate_ros_network
 
     domain = isolate_ros_network()
     say(f'ROS_DOMAIN_ID={domain}, discovery on localhost only')

@@ -49,7 +49,7 @@ from forte_bringup.metrics import (
     result_table,
     summary_json,
 )
-from forte_perception.slip_params import MODES, RECOMMENDED_MODE
+from forte_perception.slip.params import MODES, RECOMMENDED_MODE
 
 CONTROLLERS = ('ON_OFF', 'NO_SLIP', 'FORTE')
 #: Slip modes of the benchmark: the node's default first, then the others (the paper's).
@@ -70,7 +70,7 @@ class Task:
 
 def benchmark_objects(quick: bool) -> list[tuple[str, str]]:
     """(object, category) pairs of the benchmark; ``quick``: the first one per category."""
-    from forte_driver.sim import CATEGORIES, objects_in_category
+    from forte_sim import CATEGORIES, objects_in_category
 
     pairs = []
     for category in CATEGORIES:
@@ -168,11 +168,11 @@ def calibration_dataset(trials_per_indentor: int, hold_seconds: float, seed: int
                         indentors: Sequence[str] | None = None) -> dict[str, np.ndarray]:
     """The simulated calibration rig in the dataset format of docs/contracts.md.
 
-    Thin wrapper of :func:`forte_driver.sim.dataset.generate_calibration_dataset` (the
+    Thin wrapper of :func:`forte_sim.dataset.generate_calibration_dataset` (the
     paper's protocol: quiet tare period, close to an angle drawn uniformly between just
     touching and fully closed, hold, release).
     """
-    from forte_driver.sim.dataset import CalibrationProtocol, generate_calibration_dataset
+    from forte_sim.dataset import CalibrationProtocol, generate_calibration_dataset
 
     protocol = CalibrationProtocol(trials_per_indentor=trials_per_indentor,
                                    hold_seconds=hold_seconds,
@@ -327,7 +327,7 @@ def force_evaluation(args: argparse.Namespace, results: dict) -> list[str]:
     hold = 4.0 if args.quick else 12.0
     indentors = None
     if args.quick:
-        from forte_driver.sim import INDENTORS
+        from forte_sim import INDENTORS
         indentors = list(INDENTORS)[:4]
     print(f'\n[evaluate] force model: calibration rig, {per_indentor} trials per indentor, '
           '10-fold trial-wise CV with and without history features', flush=True)
@@ -364,7 +364,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _category_of(name: str) -> str:
-    from forte_driver.sim import OBJECTS
+    from forte_sim import OBJECTS
 
     return OBJECTS[name].category
 

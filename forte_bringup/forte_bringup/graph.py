@@ -227,7 +227,7 @@ GRAPHS: dict[str, GraphSpec] = {
         'grasp control',
         'sim.yaml',
         (
-            NodeSpec('forte_driver', 'sim_node', 'sim', lifecycle=True,
+            NodeSpec('forte_sim', 'sim_node', 'sim', lifecycle=True,
                      argument_parameters=(('object', 'object'), ('seed', 'seed'),
                                           ('real_time_factor', 'real_time_factor'))),
             PERCEPTION,

@@ -29,7 +29,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-#: Category keys (forte_driver.sim.catalogue.CATEGORIES) and the paper's row labels.
+#: Category keys (forte_sim.catalogue.CATEGORIES) and the paper's row labels.
 CATEGORY_LABELS = {
     'fragile_rigid': 'Fragile / Rigid',
     'fragile_deformable': 'Fragile / Deformable',

@@ -21,9 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from forte_driver.replay.bags import read_bag
+from forte_ros.contract import CHANNEL_NAMES
 
-CHANNEL_NAMES = ('left_distal', 'left_middle', 'left_root', 'right_distal', 'right_middle',
-                 'right_root')
 #: Slip threshold T of the paper [dB^2].
 SLIP_THRESHOLD = 2.0
 

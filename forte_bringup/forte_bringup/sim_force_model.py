@@ -34,8 +34,8 @@ _MODEL_CACHE: dict[str, object] = {}
 
 def _source_hash() -> str:
     """Hash of the simulator and perception sources and the training settings."""
-    import forte_driver.sim as sim
     import forte_perception
+    import forte_sim as sim
 
     digest = hashlib.sha256(repr(sorted(FORCE_TRAINING.items())).encode())
     for package in (Path(sim.__file__).parent, Path(forte_perception.__file__).parent):
@@ -69,9 +69,10 @@ def calibration_features(settings: dict | None = None) -> tuple[np.ndarray, np.n
     trial : ndarray, shape (m,)
         Trial id.
     """
-    from forte_driver.sim import INDENTORS, SAMPLE_RATE, make_scene
     from forte_perception.force import force_features
     from forte_perception.median import RunningMedian
+    from forte_ros.contract import SAMPLE_RATE
+    from forte_sim import INDENTORS, make_scene
 
     s = dict(FORCE_TRAINING, **(settings or {}))
     rng = np.random.default_rng(s['seed'])

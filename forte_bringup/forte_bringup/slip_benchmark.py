@@ -2,8 +2,8 @@
 
 Builds (or loads from ``out/slip_dataset/``) the issue-14 slip evaluation set
 (:mod:`forte_bringup.slip_dataset`: signal-level scenes of
-:mod:`forte_perception.slip_scenes` and scripted simulator lifts), runs a detector mode of
-:mod:`forte_perception.slip_benchmark` on it (``--repeats`` times for the CPU time, best
+:mod:`forte_perception.evaluation.scenes` and scripted simulator lifts), runs a detector mode of
+:mod:`forte_perception.evaluation.benchmark` on it (``--repeats`` times for the CPU time, best
 repetition), and prints one markdown table per split (tune, held-out): per family and
 pooled, event recall / precision / F1, latency p50 / p90, false flags per minute while
 holding still, scenes with a false event and CPU time per detector update; then recall and
@@ -16,7 +16,7 @@ Example::
     python -m forte_bringup.slip_benchmark --split held_out --families quiet_sub_lsb ramp
 
 The CPU time is ``time.process_time`` (all threads of the process); the paper detector's
-matrix products stay below OpenBLAS' threading threshold (see ``forte_perception.slip``),
+matrix products stay below OpenBLAS' threading threshold (see ``forte_perception.slip.detector``),
 and ``OPENBLAS_NUM_THREADS=1`` makes sure of it for any mode.
 """
 from __future__ import annotations
@@ -31,9 +31,9 @@ from pathlib import Path
 import numpy as np
 
 from forte_bringup.slip_dataset import build_set
-from forte_perception.slip_benchmark import MODES, markdown, prepare, report, run_mode
-from forte_perception.slip_events import MAX_LATENCY
-from forte_perception.slip_labels import SPLITS
+from forte_perception.evaluation.benchmark import MODES, markdown, prepare, report, run_mode
+from forte_perception.evaluation.labels import SPLITS
+from forte_perception.evaluation.slip_metrics import MAX_LATENCY
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -1,7 +1,7 @@
 """The labelled slip evaluation set of issue 14: simulator scenes, and the whole set's cache.
 
 Simulator scenes (:func:`sim_scene`): one scripted lift of one object of the simulator's
-catalogue (``forte_driver.sim``, scene ``'grasp'``), recorded raw (the frames the serial
+catalogue (``forte_sim``, scene ``'grasp'``), recorded raw (the frames the serial
 driver would deliver) with the simulator's ground truth. Scripted commands, not a
 controller: a controller reacting to the paper detector's flags (FORTE tightens on slip)
 would make the recording depend on the detector under test. Protocol (2 kHz samples, servo
@@ -29,7 +29,7 @@ Split: in each category of the catalogue the objects alternate (first, third, ..
 second, fourth, ... held-out); tune seeds 0 and 2, held-out seeds 1 and 3; two grips each.
 
 The whole set (:func:`build_set`) = the signal-level scenes of
-:mod:`forte_perception.slip_scenes` + these, both splits, cached in
+:mod:`forte_perception.evaluation.scenes` + these, both splits, cached in
 ``out/slip_dataset/slip_set_<hash>.npz``; the hash covers the generator sources (the signal
 generators, the label format, this module and the simulator package) and the numpy
 version, so a change to any of them rebuilds the set.
@@ -42,8 +42,9 @@ from pathlib import Path
 
 import numpy as np
 
-from forte_perception import slip_labels, slip_scenes
-from forte_perception.slip_labels import (
+from forte_perception.evaluation import labels as slip_labels
+from forte_perception.evaluation import scenes as slip_scenes
+from forte_perception.evaluation.labels import (
     EVALUATE_FROM,
     FINGER_BOTH,
     FINGER_UNKNOWN_ONE,
@@ -53,11 +54,11 @@ from forte_perception.slip_labels import (
     save_scenes,
     subtract_intervals,
 )
+from forte_ros.contract import SAMPLE_RATE as FS
 
 __all__ = ['GRIPS', 'SIM_SEEDS', 'build_set', 'dataset_hash', 'sim_keys', 'sim_objects',
            'sim_scene', 'sim_scenes', 'source_files']
 
-FS = 2000
 #: Seeds of each split.
 SIM_SEEDS = {'tune': (0, 2), 'held_out': (1, 3)}
 GRIPS = ('marginal', 'firm')
@@ -70,7 +71,7 @@ _GRACE = int(0.5 * FS)
 
 def sim_objects(split: str) -> list[str]:
     """Objects of a split: per category, alternating in catalogue order."""
-    from forte_driver.sim import CATEGORIES, objects_in_category
+    from forte_sim import CATEGORIES, objects_in_category
 
     first = SPLITS.index(split)
     return [name for category in CATEGORIES
@@ -127,7 +128,7 @@ def _events(onsets: list[tuple[int, int]], slip_type: np.ndarray) -> list[tuple]
 
 def _busy(truth: dict, lift_start: int, lift_stop: int) -> list[tuple[int, int]]:
     """Intervals that are neither slip nor holding still (module docstring)."""
-    from forte_driver.sim import OBJECT_BROKEN, OBJECT_CRUSHED, OBJECT_HELD
+    from forte_sim import OBJECT_BROKEN, OBJECT_CRUSHED, OBJECT_HELD
 
     moving = np.abs(np.diff(truth['joint_position'], prepend=truth['joint_position'][0])) > 1e-6
     busy = _intervals(moving)
@@ -151,7 +152,7 @@ def sim_scene(object_name: str, seed: int, grip: str) -> SlipScene:
     ValueError
         Unknown grip, or an object / seed combination outside the split definition.
     """
-    from forte_driver.sim import OBJECTS, make_scene
+    from forte_sim import OBJECTS, make_scene
 
     if grip not in GRIPS:
         raise ValueError(f'grip must be one of {GRIPS}, got {grip!r}')
@@ -190,9 +191,9 @@ def sim_scenes(split: str | None = None) -> list[SlipScene]:
 
 def source_files() -> list[Path]:
     """The files whose content defines the set (hashed into the cache name)."""
-    import forte_driver.sim
+    import forte_sim
 
-    sim_dir = Path(forte_driver.sim.__file__).parent
+    sim_dir = Path(forte_sim.__file__).parent
     return ([Path(slip_scenes.__file__), Path(slip_labels.__file__), Path(__file__)]
             + sorted(sim_dir.glob('*.py')))
 

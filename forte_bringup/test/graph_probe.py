@@ -339,8 +339,8 @@ def write_quiet_bag(path: Path, messages: int = 600, first_second: int = 1000,
 def emulated_devices(folder: Path, timeout: float = 20.0) -> Iterator[tuple[Path, Path]]:
     """The emulated tactile sensor and the simulated Dynamixel pair on pseudo-terminals.
 
-    Runs ``python -m forte_driver.bench_devices.emulated_sensor --link <folder>/forte_sensor``
-    and ``python -m forte_driver.bench_devices.simulated_servo --link <folder>/forte_gripper``;
+    Runs ``python -m forte_sim.bench_devices.emulated_sensor --link <folder>/forte_sensor``
+    and ``python -m forte_sim.bench_devices.simulated_servo --link <folder>/forte_gripper``;
     stops both with SIGINT (SIGKILL after 10 s) on exit.
 
     Yields
@@ -350,10 +350,10 @@ def emulated_devices(folder: Path, timeout: float = 20.0) -> Iterator[tuple[Path
     """
     sensor_link, servo_link = folder / 'forte_sensor', folder / 'forte_gripper'
     devices = [
-        subprocess.Popen([sys.executable, '-m', 'forte_driver.bench_devices.emulated_sensor',
+        subprocess.Popen([sys.executable, '-m', 'forte_sim.bench_devices.emulated_sensor',
                           '--link', str(sensor_link)],
                          stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT),
-        subprocess.Popen([sys.executable, '-m', 'forte_driver.bench_devices.simulated_servo',
+        subprocess.Popen([sys.executable, '-m', 'forte_sim.bench_devices.simulated_servo',
                           '--link', str(servo_link)],
                          stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT),
     ]

@@ -23,7 +23,8 @@ import pytest
 from catkin_pkg.package import parse_package
 
 ROOT = Path(__file__).resolve().parents[2]
-PACKAGES = ('forte_msgs', 'forte_driver', 'forte_perception', 'forte_control', 'forte_bringup')
+PACKAGES = ('forte_ros', 'forte_msgs', 'forte_driver', 'forte_sim', 'forte_perception',
+            'forte_control', 'forte_bringup')
 
 #: Imported top-level module -> the package.xml key it needs: Python libraries by their key
 #: in ros/rosdistro rosdep/python.yaml, ROS 2 packages (and FORTE's own) by package name.
@@ -42,11 +43,7 @@ ROSDEP_KEYS: dict[str, str] = {
         'launch_pytest', 'launch_ros', 'lifecycle_msgs', 'rcl_interfaces', 'rclpy',
         'ros2action', 'ros2cli', 'ros2launch', 'ros2lifecycle', 'ros2topic',
         'rosgraph_msgs', 'sensor_msgs', 'std_msgs', 'std_srvs', *PACKAGES)},
-    'forte_ros': 'forte_msgs',  # the node runner, installed by forte_msgs
 }
-
-#: Python modules a package installs besides the one named after it.
-EXTRA_MODULES: dict[str, tuple[str, ...]] = {'forte_msgs': ('forte_ros',)}
 
 #: Imported module -> pip distribution, for libraries that have no rosdep key (not
 #: declared in package.xml; README's robot section installs them with pip).
@@ -62,6 +59,8 @@ RUNTIME_ONLY: dict[tuple[str, str], str] = {
     ('forte_msgs', 'std_msgs'): 'the interface definitions use std_msgs/Header',
     ('forte_driver', 'lifecycle_msgs'): 'services and transition events of its lifecycle '
                                         'nodes, used through rclpy.lifecycle',
+    ('forte_sim', 'lifecycle_msgs'): 'services and transition events of the sim lifecycle '
+                                     'node, used through rclpy.lifecycle',
     ('forte_bringup', 'xacro'): 'expands the installed urdf/forte_gripper.urdf.xacro',
 }
 
@@ -121,15 +120,13 @@ def third_party_imports(package: str) -> dict[str, dict[str, set[str]]]:
         and ``launch/``, test = ``test/`` (modules runtime code imports are left out of it).
     """
     folder = ROOT / package
-    modules = (package, *EXTRA_MODULES.get(package, ()))
-    scopes = {'runtime': [*(path for module in modules for path in (folder / module).rglob('*.py')),
-                          *(folder / 'launch').rglob('*.py')],
+    scopes = {'runtime': [*(folder / package).rglob('*.py'), *(folder / 'launch').rglob('*.py')],
               'test': list((folder / 'test').rglob('*.py'))}
     # test helpers imported by their own name (perception_signals); a test subfolder's name
     # is not importable (prepend mode puts the subfolder itself on sys.path), and
     # forte_driver/test/serial must not hide pyserial's ``serial``
     local = {path.stem for path in scopes['test']} - set(PACKAGES)
-    ignored = sys.stdlib_module_names | local | set(modules)
+    ignored = sys.stdlib_module_names | local | {package}
     found: dict[str, dict[str, set[str]]] = {'runtime': defaultdict(set), 'test': defaultdict(set)}
     for scope, paths in scopes.items():
         for path in paths:

@@ -1,6 +1,6 @@
 """The README's ROS 2 commands, run as a user types them (each a subprocess of ``ros2``).
 
-A force model made with the package's tools (``ros2 run forte_driver forte_sim_dataset``,
+A force model made with the package's tools (``ros2 run forte_sim forte_sim_dataset``,
 ``ros2 run forte_perception forte_train_force``), then ``ros2 launch forte_bringup
 sim.launch.py object:=raspberry force_model:=...`` with sim.yaml's other defaults (a
 raspberry: 0.25 N lifts it whatever the DDS timing, while FORTE on sim.yaml's soda can races
@@ -213,7 +213,7 @@ def joint_positions() -> list[float]:
 def sim_launch(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Running]:
     folder = tmp_path_factory.mktemp('ros2_cli')
     # the README's recipe for a force model (quick calibration set, no cross-validation)
-    ros2('run', 'forte_driver', 'forte_sim_dataset', '--quick', '--output',
+    ros2('run', 'forte_sim', 'forte_sim_dataset', '--quick', '--output',
          'calibration.npz', cwd=folder, timeout=300.0)
     ros2('run', 'forte_perception', 'forte_train_force', 'calibration.npz', '-o',
          'force_model.npz', '--folds', '0', cwd=folder, timeout=300.0)

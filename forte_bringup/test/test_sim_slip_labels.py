@@ -1,5 +1,5 @@
-"""The simulator's slip labels against the paper's slip detector (forte_driver.sim +
-forte_perception.slip, no ROS).
+"""The simulator's slip labels against the paper's slip detector (forte_sim +
+forte_perception.slip.detector, no ROS).
 
 Moved from forte_driver/test/sim/test_physics.py: the driver package does not import
 forte_perception, forte_bringup depends on both.
@@ -7,14 +7,14 @@ forte_perception, forte_bringup depends on both.
 import numpy as np
 import pytest
 
-from forte_driver.sim import OBJECT_HELD, make_scene
-from forte_driver.sim.testing import (
+from forte_perception.slip import detector as slip
+from forte_sim import OBJECT_HELD, make_scene
+from forte_sim.testing import (
     close_to_force,
     hold,
     median_filtered,
     slip_characterisation_trial,
 )
-from forte_perception import slip
 
 FS = 2000
 

@@ -3,7 +3,7 @@ import json
 
 from forte_bringup import slip_benchmark
 from forte_bringup.slip_dataset import sim_scene
-from forte_perception.slip_scenes import make_scene
+from forte_perception.evaluation.scenes import make_scene
 
 
 def small_set(*_args, **_kwargs):

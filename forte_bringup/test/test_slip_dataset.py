@@ -12,9 +12,9 @@ from forte_bringup.slip_dataset import (
     sim_objects,
     sim_scene,
 )
-from forte_driver.sim import CATEGORIES, OBJECTS
-from forte_perception.slip_labels import EVALUATE_FROM, FINGER_BOTH
-from forte_perception.slip_scenes import make_scene
+from forte_perception.evaluation.labels import EVALUATE_FROM, FINGER_BOTH
+from forte_perception.evaluation.scenes import make_scene
+from forte_sim import CATEGORIES, OBJECTS
 
 
 def test_the_split_is_disjoint_by_object_and_seed_and_covers_every_category():

@@ -6,7 +6,7 @@ The table is the single source of what a parameter means and which values it may
   choices of :data:`CONTROLLER_PARAMETERS` (through :func:`range_problems`);
 - the node ``grasp_controller`` builds its ``ParameterDescriptor`` objects (description,
   ``FloatingPointRange`` / ``IntegerRange``, allowed choices) from the same entries
-  (:mod:`forte_control.node_parameters`), so ``ros2 param describe`` shows exactly the range
+  (:mod:`forte_control.ros.node_parameters`), so ``ros2 param describe`` shows exactly the range
   the state machine enforces.
 
 Bounds are inclusive at both ends, as ``FloatingPointRange`` is. A quantity that must be
@@ -214,8 +214,9 @@ NODE_PARAMETERS: dict[str, ParameterSpec] = {spec.name: spec for spec in (
 LIFT_CHECK_PREFIX = 'lift_check.'
 
 #: The lift verification's thresholds (the fields of
-#: :class:`forte_control.lift_check.LiftCheckParams`, which holds their defaults), under
-#: their node names. Levels are in the tared filtered channels' normalised units (-1..1).
+#: :class:`forte_control.state_machine.lift_check.LiftCheckParams`, which holds their
+#: defaults), under their node names. Levels are in the tared filtered channels' normalised
+#: units (-1..1).
 LIFT_CHECK_PARAMETERS: dict[str, ParameterSpec] = {
     LIFT_CHECK_PREFIX + spec.name: replace(spec, name=LIFT_CHECK_PREFIX + spec.name)
     for spec in (

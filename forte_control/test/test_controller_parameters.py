@@ -17,9 +17,9 @@ from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from forte_control.grasp_controller_node import GraspControllerNode
-from forte_control.lift_check import LiftCheckParams
+from forte_control.ros.grasp_controller_node import GraspControllerNode
 from forte_control.state_machine import ControllerParams
+from forte_control.state_machine.lift_check import LiftCheckParams
 
 #: node parameter name -> (defaults of its dataclass, field name)
 GROUPS = {prefix + item.name: (defaults, item.name)

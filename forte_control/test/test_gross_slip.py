@@ -13,8 +13,8 @@ from dataclasses import replace
 import pytest
 
 from forte_control import state_machine
-from forte_control.lift_check import LiftCheckParams, LiftMonitor
 from forte_control.state_machine import Controller, GraspState, Outcome
+from forte_control.state_machine.lift_check import LiftCheckParams, LiftMonitor
 
 DT = 0.01
 EQUAL = (0.10, 0.06, 0.03, 0.10, 0.06, 0.03)       # levels 0.19 / 0.19

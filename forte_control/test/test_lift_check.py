@@ -12,7 +12,8 @@ from dataclasses import replace
 import pytest
 
 from forte_control import state_machine
-from forte_control.lift_check import (
+from forte_control.state_machine import GraspState, GraspStateMachine, Outcome
+from forte_control.state_machine.lift_check import (
     LiftCheckParams,
     LiftMonitor,
     WrenchInput,
@@ -20,7 +21,6 @@ from forte_control.lift_check import (
     finger_levels,
     shear_index,
 )
-from forte_control.state_machine import GraspState, GraspStateMachine, Outcome
 
 DT = 0.01
 EQUAL = (0.10, 0.06, 0.03, 0.10, 0.06, 0.03)       # both fingers pressed alike

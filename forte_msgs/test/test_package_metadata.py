@@ -8,7 +8,8 @@ import pytest
 from catkin_pkg.package import parse_package
 
 ROOT = Path(__file__).resolve().parents[2]
-PYTHON_PACKAGES = ('forte_driver', 'forte_perception', 'forte_control', 'forte_bringup')
+PYTHON_PACKAGES = ('forte_ros', 'forte_driver', 'forte_sim', 'forte_perception', 'forte_control',
+                   'forte_bringup')
 ALL_PACKAGES = ('forte_msgs',) + PYTHON_PACKAGES
 
 
@@ -40,7 +41,9 @@ def test_ament_python_package_layout(name):
 def test_runtime_dependencies_use_rosdep_keys(name):
     package = parse_package(ROOT / name / 'package.xml')
     depends = {d.name for d in package.exec_depends + package.build_depends}
-    assert {'rclpy', 'forte_msgs'} <= depends
+    # forte_ros is the bottom of the graph (docs/architecture.md): it needs no interfaces
+    assert {'rclpy', 'forte_ros'} - {name} <= depends
+    assert name == 'forte_ros' or 'forte_msgs' in depends
     for python_dependency in (d for d in depends if d.startswith('python')):
         assert python_dependency.startswith('python3-'), python_dependency
 
@@ -64,3 +67,14 @@ def test_every_interface_field_has_a_comment():
             code = line.split('#')[0].strip()
             if code and code != '---' and '=' not in code and code.split()[0] != 'std_msgs/Header':
                 assert '#' in line, f'{path.name}: field without comment: {line!r}'
+
+
+def test_forte_msgs_is_interfaces_only():
+    """forte_msgs generates interfaces and nothing else: no Python package of its own, and no
+    run-time dependency beyond what the generated code loads (forte_ros is its own package)."""
+    package = parse_package(ROOT / 'forte_msgs' / 'package.xml')
+    runtime = {d.name for d in package.exec_depends + package.build_export_depends}
+    assert runtime <= {'rosidl_default_runtime', 'std_msgs'}, runtime
+    cmake = (ROOT / 'forte_msgs' / 'CMakeLists.txt').read_text()
+    assert 'ament_python_install_package' not in cmake
+    assert not [path for path in (ROOT / 'forte_msgs').rglob('*.py') if 'test' not in path.parts]

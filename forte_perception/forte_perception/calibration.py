@@ -18,16 +18,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .force import ForceModel, force_features
-from .median import RunningMedian
+from forte_perception.force import ForceModel, force_features
+from forte_perception.median import RunningMedian
+from forte_ros.contract import CHANNEL_NAMES
 
 __all__ = ['CalibrationRows', 'cross_validate', 'load_calibration', 'make_rows',
            'train_model']
 
 REQUIRED_KEYS = ('frames', 'force', 'trial', 'indentor', 'indentor_names', 'fs',
                  'channel_names', 'tare_samples')
-CHANNEL_NAMES = ('left_distal', 'left_middle', 'left_root',
-                 'right_distal', 'right_middle', 'right_root')
 
 
 def load_calibration(path: str | Path) -> dict[str, np.ndarray]:

@@ -26,11 +26,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from forte_ros.contract import N_CHANNELS
+
 __all__ = ['HEALTH_MASKED', 'HEALTH_NON_FINITE', 'HEALTH_OUT_OF_RANGE', 'HEALTH_RAILED',
            'HEALTH_STUCK', 'LEVEL_ERROR', 'LEVEL_OK', 'LEVEL_WARN', 'NEVER', 'ONE_COUNT',
            'ChannelHealth', 'channel_report']
 
-N_CHANNELS = 6
 HEALTH_NON_FINITE = 1
 HEALTH_OUT_OF_RANGE = 2
 HEALTH_MASKED = 4

@@ -38,6 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from forte_ros.contract import CHANNEL_NAMES, N_CHANNELS, SAMPLE_RATE
+
 __all__ = [
     'FEATURE_NAMES',
     'FORMAT_NAME',
@@ -49,10 +51,7 @@ __all__ = [
     'window_lengths',
 ]
 
-N_CHANNELS = 6
 WINDOW_SECONDS = (2.5, 5.0, 10.0)
-CHANNEL_NAMES = ('left_distal', 'left_middle', 'left_root',
-                 'right_distal', 'right_middle', 'right_root')
 FEATURE_NAMES = tuple(
     [f'{c}_latest' for c in CHANNEL_NAMES]
     + [f'{c}_mean_{s}s' for s in WINDOW_SECONDS for c in CHANNEL_NAMES])
@@ -60,7 +59,7 @@ FORMAT_NAME = 'forte_force_model'
 FORMAT_VERSION = 1
 
 
-def window_lengths(fs: float = 2000.0) -> tuple[int, int, int]:
+def window_lengths(fs: float = SAMPLE_RATE) -> tuple[int, int, int]:
     """History window lengths [samples] for 2.5, 5 and 10 s at rate ``fs`` [Hz]."""
     if not (np.isfinite(fs) and fs > 0):
         raise ValueError(f'fs must be positive, got {fs}')
@@ -77,7 +76,7 @@ class ForceFeatures:
         Sampling rate [Hz].
     """
 
-    def __init__(self, fs: float = 2000.0) -> None:
+    def __init__(self, fs: float = SAMPLE_RATE) -> None:
         self.fs = float(fs)
         self.lengths = window_lengths(fs)
         self._keep = max(self.lengths)
@@ -205,7 +204,7 @@ def _window_sum(window: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(window.T).sum(axis=1)
 
 
-def force_features(frames: np.ndarray, fs: float = 2000.0) -> np.ndarray:
+def force_features(frames: np.ndarray, fs: float = SAMPLE_RATE) -> np.ndarray:
     """Force features at every sample of a recording.
 
     Parameters
@@ -227,7 +226,7 @@ def force_features(frames: np.ndarray, fs: float = 2000.0) -> np.ndarray:
     return np.concatenate(parts, axis=0) if parts else np.zeros((0, 4 * N_CHANNELS))
 
 
-def force_features_reference(frames: np.ndarray, fs: float = 2000.0,
+def force_features_reference(frames: np.ndarray, fs: float = SAMPLE_RATE,
                              index: np.ndarray | None = None) -> np.ndarray:
     """Naive features with ``numpy.mean`` over each window (for tests and benchmarks).
 

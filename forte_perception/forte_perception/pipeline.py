@@ -31,7 +31,7 @@ Design choices (see docs/perception.md):
 - Invalid values (NaN, inf, ``|x| > input_limit``) affect only their channel: the value is
   replaced internally by the channel's last valid value and every output of that channel
   whose window holds it is masked (:mod:`forte_perception.channel_health`,
-  :mod:`forte_perception.slip_mask`): ``filtered`` and ``psd_max_db`` NaN, excluded from
+  :mod:`forte_perception.slip.mask`): ``filtered`` and ``psd_max_db`` NaN, excluded from
   contact and from its finger's slip average, force invalid (NaN) while a force window holds
   it. Nothing restarts; ``data_valid`` is false for the chunk that contained it.
 """
@@ -42,17 +42,16 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
-from .channel_health import HEALTH_MASKED, ChannelHealth
-from .force import ForceFeatures, ForceModel, window_lengths
-from .median import RunningMedian
-from .slip import SlipDetector, SlipParams
-from .slip_mask import SlipMask
+from forte_perception.channel_health import HEALTH_MASKED, ChannelHealth
+from forte_perception.force import ForceFeatures, ForceModel, window_lengths
+from forte_perception.median import RunningMedian
+from forte_perception.slip.detector import SlipDetector, SlipParams
+from forte_perception.slip.mask import SlipMask
+from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, SAMPLE_RATE
 
 __all__ = ['PerceptionOutput', 'PerceptionPipeline', 'PipelineConfig', 'TareResult',
            'contact_exceed', 'contact_flags']
 
-N_CHANNELS = 6
-FINGERS = ((0, 1, 2), (3, 4, 5))
 
 
 @dataclass(frozen=True)
@@ -82,7 +81,7 @@ class PipelineConfig:
         A channel exactly constant this long is reported stuck [s].
     """
 
-    fs: float = 2000.0
+    fs: float = SAMPLE_RATE
     median_window: int = 11
     contact_window: int = 200
     contact_threshold: float = 0.01
@@ -219,7 +218,7 @@ def contact_flags(filtered: np.ndarray, history: np.ndarray, window: int,
         at start-up) greater than tau.
     """
     exceed = contact_exceed(filtered, history, window, threshold)
-    return np.stack([exceed[:, list(f)].any(axis=1) for f in FINGERS], axis=1)
+    return np.stack([exceed[:, list(f)].any(axis=1) for f in FINGER_CHANNELS], axis=1)
 
 
 def contact_exceed(filtered: np.ndarray, history: np.ndarray, window: int,
@@ -400,7 +399,7 @@ class PerceptionPipeline:
                                     c.contact_threshold)
             if contact_masks:
                 exceed &= ~health.masked(first_index + np.arange(n), self._contact_reach)
-            flags = np.stack([exceed[:, list(f)].any(axis=1) for f in FINGERS], axis=1)
+            flags = np.stack([exceed[:, list(f)].any(axis=1) for f in FINGER_CHANNELS], axis=1)
             out.contact = flags[-1].copy()
             self._collect_tare(tare_raw, flags)
         else:

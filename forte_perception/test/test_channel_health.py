@@ -24,7 +24,7 @@ from forte_perception.channel_health import (
 from forte_perception.force import ForceModel
 from forte_perception.median import running_median
 from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
-from forte_perception.slip import SlipParams, slip_features_reference
+from forte_perception.slip.detector import SlipParams, slip_features_reference
 
 CHUNK = 20
 P = SlipParams()

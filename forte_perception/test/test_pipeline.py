@@ -10,7 +10,7 @@ from forte_perception.pipeline import (
     PipelineConfig,
     contact_flags,
 )
-from forte_perception.slip import slip_features
+from forte_perception.slip.detector import slip_features
 
 
 def toy_model():

@@ -6,7 +6,7 @@ import pytest
 from perception_signals import FS, slip_bursts
 
 from forte_perception.calibration import load_calibration, make_rows
-from forte_perception.evaluation import (
+from forte_perception.evaluation.recordings import (
     LabelledRecording,
     evaluate_slip,
     save_labelled,

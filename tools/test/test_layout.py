@@ -3,10 +3,11 @@
 - Size: no file over 600 lines and no function over 80 lines outside tests and generated
   code (Python by its syntax tree; C by its top-level function bodies).
 - Import direction: a package imports only the packages below it in the graph of
-  docs/architecture.md (forte_msgs <- forte_driver, forte_perception, forte_control <-
-  forte_bringup), at run time and in its tests.
-- Pure core, thin shell: rclpy and ROS message packages only in the ROS shell modules
-  (``*_node.py`` and the node parts named in :data:`ROS_SHELL_PARTS`).
+  docs/architecture.md (forte_ros <- forte_msgs <- forte_driver <- forte_sim; forte_msgs <-
+  forte_perception, forte_control; all <- forte_bringup), at run time and in its tests.
+- Pure core, thin shell: rclpy and ROS message packages only in each core package's
+  ``ros/`` folder; the pure modules of forte_ros (contract, parameter table, isolation)
+  import nothing of ROS.
 """
 from __future__ import annotations
 
@@ -21,35 +22,29 @@ ROOT = Path(__file__).resolve().parents[2]
 MAX_FILE_LINES = 600
 MAX_FUNCTION_LINES = 80
 
-#: Who may import whom (top-level import names; forte_ros is installed by forte_msgs).
+#: Who may import whom (top-level import names), as in docs/architecture.md's graph.
 ALLOWED_IMPORTS = {
+    'forte_ros': {'forte_ros'},
     'forte_msgs': {'forte_msgs', 'forte_ros'},
     'forte_driver': {'forte_driver', 'forte_msgs', 'forte_ros'},
+    'forte_sim': {'forte_sim', 'forte_driver', 'forte_msgs', 'forte_ros'},
     'forte_perception': {'forte_perception', 'forte_msgs', 'forte_ros'},
     'forte_control': {'forte_control', 'forte_msgs', 'forte_ros'},
-    'forte_bringup': {'forte_bringup', 'forte_driver', 'forte_perception', 'forte_control',
-                      'forte_msgs', 'forte_ros'},
+    'forte_bringup': {'forte_bringup', 'forte_driver', 'forte_sim', 'forte_perception',
+                      'forte_control', 'forte_msgs', 'forte_ros'},
 }
-PROJECT_MODULES = {'forte_msgs', 'forte_ros', 'forte_driver', 'forte_perception',
-                   'forte_control', 'forte_bringup'}
-#: Import names that make a module part of the ROS shell.
+PROJECT_MODULES = set(ALLOWED_IMPORTS)
+#: Import names that make a module part of the ROS shell. forte_ros counts as ROS except its
+#: pure modules (:data:`PURE_FORTE_ROS`), which the cores import.
 ROS_IMPORTS = re.compile(r'^(rclpy|launch|launch_ros|rosidl_\w+|rcl_interfaces|\w+_msgs|'
-                         r'\w+_srvs|forte_ros)$')
-#: Modules besides ``*_node.py`` that belong to a node's ROS shell, with the reason.
-ROS_SHELL_PARTS = {
-    'forte_driver/forte_driver/serial/serial_sensor_parameters.py':
-        'the serial sensor node\'s ROS parameter declarations and their validation',
-    'forte_driver/forte_driver/dynamixel/gripper_driver_parameters.py':
-        'the gripper driver node\'s ROS parameter declarations (one table)',
-    'forte_control/forte_control/node_parameters.py':
-        'the controller node\'s ROS parameter declarations, from the core\'s ranges',
-    'forte_control/forte_control/grasp_messages.py':
-        'the controller node\'s conversions between forte_msgs and the state machine',
-    'forte_control/forte_control/gripper_command.py':
-        'the controller node\'s control_msgs/GripperCommand action server (a node mixin)',
-}
-#: Core packages: pure Python below the ROS shell (forte_bringup is ROS glue throughout).
-CORE_PACKAGES = ('forte_driver', 'forte_perception', 'forte_control')
+                         r'\w+_srvs|forte_ros)(\.|$)')
+#: The modules of forte_ros that import nothing of ROS (the contract, the parameter-table
+#: shape, the DDS isolation run before rclpy loads).
+PURE_FORTE_ROS = ('forte_ros.contract', 'forte_ros.parameter_table', 'forte_ros.isolation')
+#: Core packages: pure Python outside their ``ros/`` folder, the ROS shell.
+CORE_PACKAGES = ('forte_driver', 'forte_sim', 'forte_perception', 'forte_control')
+#: The folder of a core package that holds its ROS shell (nodes and their parts).
+SHELL_FOLDER = 'ros'
 
 
 def tracked(*patterns: str) -> list[Path]:
@@ -140,17 +135,48 @@ def test_imports_follow_the_package_graph(package):
                        + '\n'.join(wrong))
 
 
+def imported_modules(path: Path) -> set[str]:
+    """Full dotted names of the absolute imports anywhere in ``path`` (``from a.b import c``
+    gives ``a.b``)."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module)
+    return names
+
+
+def ros_imports(path: Path) -> list[str]:
+    """The imports of ``path`` that make it ROS code (pure forte_ros modules excepted)."""
+    return sorted(name for name in imported_modules(path)
+                  if ROS_IMPORTS.match(name) and not name.startswith(PURE_FORTE_ROS))
+
+
 @pytest.mark.parametrize('package', CORE_PACKAGES)
 def test_ros_only_in_the_shell(package):
     wrong = []
     for path in tracked(f'{package}/{package}/*.py'):
-        relative = str(path.relative_to(ROOT))
-        if path.name.endswith('_node.py') or relative in ROS_SHELL_PARTS:
+        relative = path.relative_to(ROOT / package / package)
+        if relative.parts[0] == SHELL_FOLDER:
             continue
-        ros = sorted(name for name in imported_names(path) if ROS_IMPORTS.match(name))
-        wrong += [f'{relative} imports {", ".join(ros)}'] if ros else []
-    assert not wrong, ('the pure core must not import ROS (move the code into the node or '
-                       'name the module in ROS_SHELL_PARTS with a reason):\n' + '\n'.join(wrong))
+        ros = ros_imports(path)
+        wrong += [f'{package}/{package}/{relative} imports {", ".join(ros)}'] if ros else []
+    assert not wrong, ('the pure core must not import ROS (move the code into the package\'s '
+                       f'{SHELL_FOLDER}/ folder):\n' + '\n'.join(wrong))
+
+
+def test_pure_forte_ros_modules_import_no_ros():
+    """The contract, the parameter-table shape and the isolation run in pure cores and before
+    rclpy loads; forte_ros's ``__init__`` imports nothing eagerly."""
+    wrong = []
+    for module in (*PURE_FORTE_ROS, 'forte_ros'):
+        parts = module.split('.')
+        path = ROOT / 'forte_ros' / Path(*parts).with_suffix('.py') if len(parts) > 1 \
+            else ROOT / 'forte_ros' / 'forte_ros' / '__init__.py'
+        ros = ros_imports(path)
+        wrong += [f'{module} imports {", ".join(ros)}'] if ros else []
+    assert not wrong, '\n'.join(wrong)
 
 
 def test_the_checks_see_what_they_judge():
@@ -161,3 +187,4 @@ def test_the_checks_see_what_they_judge():
     assert c_files and any(c_functions(path) for path in c_files)
     assert len(sources()) > 50
     assert any(ROS_IMPORTS.match(name) for name in ('rclpy', 'diagnostic_msgs', 'std_srvs'))
+    assert ros_imports(ROOT / 'forte_ros' / 'forte_ros' / 'qos.py') == ['rclpy.qos']

@@ -43,16 +43,17 @@ The package, one module per concern:
 - :mod:`.phases`: one handler per active state, chosen from a table by the state.
 - :mod:`.machine`: :class:`GraspStateMachine`: start, cancel, fault reset, step.
 
-The lift verification and drop detection it relies on are :mod:`forte_control.lift_check`.
+The lift verification and drop detection it relies on are :mod:`.lift_check`.
 Every name below is importable from ``forte_control.state_machine``.
 """
 from __future__ import annotations
 
-# Re-exports (``X as X``): the public names of the package, wherever they are defined.
-from forte_control.lift_check import DropDetector as DropDetector
-from forte_control.lift_check import LiftCheckParams as LiftCheckParams
-from forte_control.lift_check import WrenchInput as WrenchInput
 from forte_control.state_machine.controller_params import ControllerParams as ControllerParams
+
+# Re-exports (``X as X``): the public names of the package, wherever they are defined.
+from forte_control.state_machine.lift_check import DropDetector as DropDetector
+from forte_control.state_machine.lift_check import LiftCheckParams as LiftCheckParams
+from forte_control.state_machine.lift_check import WrenchInput as WrenchInput
 from forte_control.state_machine.machine import GraspStateMachine as GraspStateMachine
 from forte_control.state_machine.types import ACTIVE_STATES as ACTIVE_STATES
 from forte_control.state_machine.types import PAPER_SLIP_INCREMENT as PAPER_SLIP_INCREMENT

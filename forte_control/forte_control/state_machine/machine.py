@@ -9,8 +9,8 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
-from forte_control.lift_check import LiftCheckParams
 from forte_control.state_machine.controller_params import ControllerParams, grasp_params
+from forte_control.state_machine.lift_check import LiftCheckParams
 from forte_control.state_machine.phases import GraspPhases
 from forte_control.state_machine.progress import GraspProgress, LatestInputs
 from forte_control.state_machine.safety import (

@@ -12,13 +12,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
-from forte_control.lift_check import (
+from forte_control.state_machine.controller_params import ControllerParams
+from forte_control.state_machine.lift_check import (
     DropDetector,
     LiftMonitor,
     closed_on_object_evidence,
     deformation_level,
 )
-from forte_control.state_machine.controller_params import ControllerParams
 from forte_control.state_machine.progress import GraspProgress, LatestInputs
 from forte_control.state_machine.safety import flag_names, fresh
 from forte_control.state_machine.types import (

@@ -4,8 +4,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from forte_control.lift_check import DropDetector, LiftCheckParams, LiftMonitor, WrenchInput
 from forte_control.state_machine.controller_params import ControllerParams
+from forte_control.state_machine.lift_check import (
+    DropDetector,
+    LiftCheckParams,
+    LiftMonitor,
+    WrenchInput,
+)
 from forte_control.state_machine.types import (
     ControlInputs,
     GraspGoal,

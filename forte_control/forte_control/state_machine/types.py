@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from enum import IntEnum, IntFlag
 from typing import Any
 
-from forte_control.lift_check import WrenchInput
+from forte_control.state_machine.lift_check import WrenchInput
 
 __all__ = [
     'ACTIVE_STATES', 'PAPER_SLIP_INCREMENT', 'ControlInputs', 'ControlOutputs', 'Controller',

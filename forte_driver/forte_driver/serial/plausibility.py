@@ -9,8 +9,6 @@ Used by :class:`forte_driver.serial.stream.StreamAssembler`.
 from __future__ import annotations
 
 from forte_driver.serial.protocol import (
-    CHANNEL_COUNT,
-    COUNTS_PER_FULL_SCALE,
     FLAG_OVERRUN,
     FLAG_SATURATED,
     FLAG_SESSION_START,
@@ -18,11 +16,12 @@ from forte_driver.serial.protocol import (
     SEQUENCE_MODULUS,
     Sample,
 )
+from forte_ros.contract import COUNTS_PER_FULL_SCALE, N_CHANNELS
 
 #: Flag bits the protocol defines (bit0 saturated, bit1 overrun, bit2 first scan).
 DEFINED_FLAGS = FLAG_SATURATED | FLAG_OVERRUN | FLAG_SESSION_START
 #: Saturation bits the protocol defines (one per channel).
-DEFINED_SATURATION_BITS = (1 << CHANNEL_COUNT) - 1
+DEFINED_SATURATION_BITS = (1 << N_CHANNELS) - 1
 
 _HALF_SEQUENCE = SEQUENCE_MODULUS // 2
 _TIME_MODULUS = 1 << 64
@@ -45,7 +44,7 @@ def check_sample_alone(sample: Sample) -> str | None:
         The reason, or ``None`` if the frame is plausible on its own.
     """
     values = sample.values
-    if len(values) != CHANNEL_COUNT or min(values) < _LOW or max(values) > _HIGH:
+    if len(values) != N_CHANNELS or min(values) < _LOW or max(values) > _HIGH:
         return f'reading out of [-1024, 1024]: {tuple(values)}'
     flags, saturated = sample.flags, sample.saturated
     if flags & ~DEFINED_FLAGS or saturated & ~DEFINED_SATURATION_BITS:
@@ -53,7 +52,7 @@ def check_sample_alone(sample: Sample) -> str | None:
     if bool(flags & FLAG_SATURATED) != bool(saturated):
         return f'saturated flag {flags & FLAG_SATURATED} with channel bits 0x{saturated:02x}'
     if saturated:
-        for channel in range(CHANNEL_COUNT):
+        for channel in range(N_CHANNELS):
             if saturated >> channel & 1 and abs(values[channel]) != _HIGH:
                 return f'channel {channel} marked clipped at reading {values[channel]}'
     if flags & FLAG_SESSION_START:

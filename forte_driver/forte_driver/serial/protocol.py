@@ -29,6 +29,8 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import NamedTuple
 
+from forte_ros.contract import COUNTS_PER_FULL_SCALE, N_CHANNELS
+
 SYNC0 = 0xA5
 SYNC1 = 0x5A
 PROTOCOL_VERSION = 1
@@ -36,12 +38,6 @@ PROTOCOL_VERSION = 1
 SIGNATURE = bytes([SYNC0, SYNC1, PROTOCOL_VERSION])
 HEADER_SIZE = 5
 CRC_SIZE = 2
-CHANNEL_COUNT = 6
-#: Reading scale: 1024 counts = 1.0 = +1 inH2O; readings are clipped to +-1024.
-COUNTS_PER_FULL_SCALE = 1024
-#: Channel order of the contract (docs/contracts.md).
-CHANNEL_NAMES = ('left_distal', 'left_middle', 'left_root',
-                 'right_distal', 'right_middle', 'right_root')
 SEQUENCE_MODULUS = 1 << 32
 OVERRUN_MODULUS = 1 << 16
 
@@ -374,7 +370,7 @@ class AsciiLineDecoder:
     def parse_line(line: bytes) -> tuple[float, ...] | None:
         """Parse one line without its newline; ``None`` if it is malformed."""
         fields = line.rstrip(b'\r').split(b',')
-        if len(fields) != CHANNEL_COUNT:
+        if len(fields) != N_CHANNELS:
             return None
         values = []
         for index, field in enumerate(fields, start=1):

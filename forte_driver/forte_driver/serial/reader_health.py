@@ -1,6 +1,6 @@
 """Health of the serial sensor node's reader thread and the level of its diagnostics.
 
-Pure Python, no rclpy (used by :mod:`forte_driver.serial.serial_sensor_node`).
+Pure Python, no rclpy (used by :mod:`forte_driver.ros.serial_sensor_node`).
 
 Rules (docs/serial_driver.md, "Reader errors"):
 

@@ -1,6 +1,6 @@
 """Bytes read from the sensor port -> stamped, gap-free batches (pure Python, no rclpy).
 
-Used by the reader thread of :mod:`forte_driver.serial.serial_sensor_node`: one
+Used by the reader thread of :mod:`forte_driver.ros.serial_sensor_node`: one
 :class:`SensorStream` per configured node holds the decoder (binary protocol v1 or legacy
 ASCII lines), the :class:`~forte_driver.serial.stream.StreamAssembler` (batches, drop /
 corruption / plausibility accounting) and the :class:`~forte_driver.serial.clock_sync.ClockSync`

@@ -32,14 +32,13 @@ import numpy as np
 
 from forte_driver.serial.plausibility import check_sample_alone, stream_mismatch
 from forte_driver.serial.protocol import (
-    CHANNEL_COUNT,
-    COUNTS_PER_FULL_SCALE,
     FLAG_SESSION_START,
     OVERRUN_MODULUS,
     SEQUENCE_MODULUS,
     AsciiSample,
     Sample,
 )
+from forte_ros.contract import COUNTS_PER_FULL_SCALE, N_CHANNELS
 
 #: Default reorder window of :class:`StreamAssembler` [sequence numbers].
 DEFAULT_REORDER_WINDOW = 64
@@ -399,7 +398,7 @@ class StreamAssembler:
                 and (period is None or (sample.time_us - head.time_us) & _TIME_MASK == period)):
             # fast path, same result as the general one: the next scan, no flags, no gap
             values = sample.values
-            if len(values) == CHANNEL_COUNT and min(values) >= _LOW and max(values) <= _HIGH:
+            if len(values) == N_CHANNELS and min(values) >= _LOW and max(values) <= _HIGH:
                 unwrapped = self.tracker.observe(sample.sequence)[1]
                 self._head = sample
                 self._append(unwrapped, sample.time_us,

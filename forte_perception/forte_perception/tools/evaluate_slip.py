@@ -4,7 +4,7 @@ Example::
 
     forte_evaluate_slip trial1.npz trial2.npz --max-latency 0.5 --report slip.json
 
-Recording format: see :mod:`forte_perception.evaluation` (``frames``, ``fs``, ``onsets``,
+Recording format: see :mod:`forte_perception.evaluation.recordings` (``frames``, ``fs``, ``onsets``,
 optional ``trial``, ``filtered`` and ``mask`` of the rows where flags count). Prints the
 trial-wise TP/FP/FN/TN, accuracy, precision, recall and F1 (as in the paper), the
 onset-to-flag latency distribution, missed onsets and false alarms. Every slip detector
@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from forte_perception.evaluation import evaluate_slip, load_labelled
-from forte_perception.slip import SlipParams
+from forte_perception.evaluation.recordings import evaluate_slip, load_labelled
+from forte_perception.slip.detector import SlipParams
 
 
 def main(argv: list[str] | None = None) -> int:

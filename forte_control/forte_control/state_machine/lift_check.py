@@ -1,0 +1,413 @@
+"""Does the gripper carry the object? Evidence checks of the grasp state machine (no rclpy).
+
+:class:`DropDetector` watches for a held object's load *disappearing* (LIFTING, HOLDING).
+It cannot see an object that never left the table: the lift height the controller knows is
+the integral of the arm velocity it commanded, and when the grip is too weak the fingers
+slide up an object that stays on the table while FORTE's tightenings make every grip signal
+(force, deformation, joint current) rise exactly as in a good grasp. :class:`LiftMonitor`
+judges the lift from three physical facts and what a robot measures:
+
+1. **A free object is centred by the fingers.** Once the object hangs from the fingers the
+   only horizontal forces on it are the two finger normal forces, so they are equal
+   (Newton's second law with no horizontal acceleration). On the table, the table's
+   friction can hold the object against one finger, up to mu_table x (the part of the
+   weight the table still carries). The tactile pattern therefore changes when the weight
+   transfers: the left and right deformation levels become equal. A grasp that ends with the
+   two fingers loaded unequally is not carrying its object. Equal levels are necessary, not
+   sufficient (an object placed exactly centred stays balanced on the table), hence:
+2. **A carried object stops slipping.** While the arm lifts, a contact that still slips
+   (stick-slip flags of the slip detector, which FORTE answers with a tightening) means
+   the fingers are still moving along the object, not carrying it. The last ``quiet_time``
+   of the lift must pass without a slip flag. A flag while HOLDING (arm stopped) does not
+   count against the lift: with the arm still, only gravity can make an object slip, i.e.
+   the object hangs from the fingers (the drop detector watches what happens next).
+
+3. **A carried object goes down with the fingers; a resting one unloads them.** An object
+   placed exactly centred stays balanced on the table, and fingers can slide along it
+   smoothly (no stick-slip to hear). Its weight is then shared by the table and the
+   fingers' friction, and the tangential (shear) load on the fingers is a friction force,
+   not the weight. The set-down probe tells them apart: the arm lifts ``probe_distance``
+   (2 mm) beyond the lift height, holds, and lowers the same distance. A carried object
+   moves down with the fingers and their tangential load (its weight) does not change; an
+   object the table holds stays where it is, and the fingers' stuck contacts unload by their
+   tangential stiffness x the distance (at most the friction force). The shear pattern of a
+   fin-ray finger is the distal-minus-root difference of its channels (a downward load on the
+   pad raises the distal and lowers the root pressure); the grip (normal force) does not
+   change in a vertical motion, so a change of sum over fingers of (distal - root) of more
+   than ``probe_unload`` during the probe means the table took load back. The absolute
+   shear level is not used: a smooth slide loads the fingers with mu_k x N, just as a carried
+   object of that weight would, and the controller does not know the weight.
+
+Optionally, a wrist force/torque sensor gives the vertical load the arm carries
+(``use_wrench``; off by default): it must have grown by ``min_wrench_load`` since the lift
+began.
+
+The same module answers a second question: when the gripper closed fully without a contact
+flag (the perception's contact is a *rate* of change; a very soft object loads too slowly to
+trip it), did it close on something? Evidence: the joint stopped short of its command
+(blocked), the tactile deformation or the force estimate is clearly above an empty
+gripper's, or the servo current rose above its free-motion level.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
+
+from forte_control.parameters import LIFT_CHECK_PREFIX, range_problems
+from forte_ros.contract import DISTAL, FINGER_CHANNELS, N_CHANNELS, ROOT
+
+if TYPE_CHECKING:  # pragma: no cover - type hints only (state_machine imports this module)
+    from forte_control.state_machine.controller_params import ControllerParams
+    from forte_control.state_machine.types import PerceptionInput
+
+__all__ = ['DropDetector', 'LiftCheckParams', 'LiftMonitor', 'LiftVerdict', 'WrenchInput',
+           'closed_on_object_evidence', 'deformation_level', 'finger_levels']
+
+
+@dataclass(frozen=True)
+class LiftCheckParams:
+    """Thresholds of the carried-object and closed-on-object checks.
+
+    Levels are in the normalised tared units of the filtered channels (full scale 2.0).
+    """
+
+    verify_lift: bool = True            # False: LIFTED from the commanded lift alone (old)
+    balance_window: float = 0.2         # averaging time of the finger levels [s]
+    balance_floor: float = 0.006        # |left - right| level always allowed [normalised]
+    balance_tolerance: float = 0.015    # plus this fraction of left + right [-]
+    min_finger_level: float = 0.01      # each finger must be loaded this much [normalised]
+    quiet_time: float = 1.0             # no slip flag in the last quiet_time of the lift [s]
+    probe_distance: float = 0.002       # set-down probe: lift beyond, then lower this [m]
+    probe_settle: float = 0.4           # wait after lowering before judging [s]
+    probe_window: float = 0.3           # averaging of the shear index before / after [s]
+    probe_unload: float = 0.0045        # shear index change that means unloaded [normalised]
+    use_wrench: bool = False            # require the wrist load below (needs wrench input)
+    min_wrench_load: float = 0.1        # wrist load gained since the lift began [N]
+    wrench_timeout: float = 0.1         # wrench freshness bound [s]
+    stall_tolerance: float = 0.02       # joint short of a closed command: blocked [rad]
+    loaded_level: float = 0.01          # mean |filtered| of a loaded gripper [normalised]
+    loaded_force: float = 0.15          # valid force estimate of a loaded gripper [N]
+    loaded_current: float = 0.1         # servo current rise over free closing [A]
+    gross_slip_reaction: bool = True    # FORTE tightens on gross-slip evidence while lifting
+    gross_slip_min_lift: float = 0.004  # commanded lift before the balance evidence counts [m]
+    gross_slip_decay: float = 0.2       # deformation fall below its lift peak that counts [-]
+    gross_slip_interval: float = 0.2    # least time between two gross-slip tightenings [s]
+
+    def problems(self) -> list[str]:
+        """Reasons why these thresholds are unusable (empty when valid).
+
+        The ranges are those of :data:`forte_control.parameters.LIFT_CHECK_PARAMETERS`, the
+        node's descriptors of the same thresholds.
+        """
+        values = {LIFT_CHECK_PREFIX + item.name: getattr(self, item.name)
+                  for item in fields(self)}
+        return range_problems(values)
+
+
+@dataclass(frozen=True)
+class WrenchInput:
+    """Latest wrist force/torque reading the controller uses (optional input)."""
+
+    stamp: float      # sample time [s]
+    force_z: float    # vertical load the wrist carries, + = pulling the gripper down [N]
+
+
+@dataclass(frozen=True)
+class LiftVerdict:
+    """Outcome of the lift verification."""
+
+    carried: bool
+    reason: str       # the evidence, with its numbers
+
+
+def shear_index(filtered: tuple[float, ...] | None) -> float | None:
+    """Shear pattern of both fingers: sum over fingers of (distal - root) channel.
+
+    Returns None without 6 finite values. Only its *change* at constant grip is used: the
+    normal load raises distal and root alike in proportion, the tangential load on the pad
+    raises the distal and lowers the root pressure.
+    """
+    if not _all_channels_finite(filtered):
+        return None
+    return sum(filtered[channels[DISTAL]] - filtered[channels[ROOT]]
+               for channels in FINGER_CHANNELS)
+
+
+def finger_levels(filtered: tuple[float, ...] | None) -> tuple[float, float] | None:
+    """Deformation level of each finger: sum of its three tared filtered channels.
+
+    Parameters
+    ----------
+    filtered : tuple of 6 float or None
+        Channels in contract order (left distal, middle, root, right distal, middle, root).
+
+    Returns
+    -------
+    tuple of 2 float or None
+        (left, right) [normalised]; None without 6 finite values.
+    """
+    if not _all_channels_finite(filtered):
+        return None
+    left, right = (sum(filtered[channel] for channel in channels) for channels in FINGER_CHANNELS)
+    return left, right
+
+
+def _all_channels_finite(filtered: tuple[float, ...] | None) -> bool:
+    """True if ``filtered`` holds a finite value for each of the contract's channels."""
+    return (filtered is not None and len(filtered) == N_CHANNELS
+            and all(math.isfinite(value) for value in filtered))
+
+
+def deformation_level(filtered: tuple[float, ...] | None) -> float | None:
+    """Mean absolute tared filtered value over the finite channels (None if there is none)."""
+    if filtered is None:
+        return None
+    values = [abs(v) for v in filtered if math.isfinite(v)]
+    return sum(values) / len(values) if values else None
+
+
+class LiftMonitor:
+    """Collect the evidence of one lift (LIFTING and HOLDING) and judge it at the end.
+
+    Parameters
+    ----------
+    params : LiftCheckParams
+    """
+
+    def __init__(self, params: LiftCheckParams) -> None:
+        self.params = params
+        # (stamp, left level, right level, shear index)
+        self._levels: deque[tuple[float, float, float, float]] = deque()
+        self._probe_reference: float | None = None  # shear index before the probe
+        self._last_flag = -math.inf       # stamp of the last slip flag while lifting [s]
+        self._hold_start: float | None = None
+        self._wrench_start: float | None = None
+        self._wrench: WrenchInput | None = None
+        self._now = -math.inf             # time of the latest update [s]
+        self._peak_level = 0.0            # largest left + right level of the lift so far
+
+    def update(self, stamp: float, filtered: tuple[float, ...] | None, slip_flag: bool,
+               holding: bool, wrench: WrenchInput | None = None, now: float | None = None
+               ) -> None:
+        """Feed one fresh, valid perception sample of the lift.
+
+        Parameters
+        ----------
+        stamp : float
+            Sample time of the perception [s].
+        filtered : tuple of 6 float or None
+            Tared filtered channels.
+        slip_flag : bool
+            The slip detector (active, valid data) flagged slip since the previous sample.
+        holding : bool
+            True in HOLDING (arm stopped), False while LIFTING.
+        wrench : WrenchInput, optional
+            Latest wrist reading (used when fresh at ``now``).
+        now : float, optional
+            Current time for the wrench freshness [s] (default ``stamp``).
+        """
+        p = self.params
+        levels = finger_levels(filtered)
+        if levels is not None:
+            self._levels.append((stamp, levels[0], levels[1], shear_index(filtered)))
+            self._peak_level = max(self._peak_level, levels[0] + levels[1])
+            keep = max(p.balance_window, p.probe_window)
+            while self._levels and self._levels[0][0] < stamp - keep:
+                self._levels.popleft()
+        if holding and self._hold_start is None:
+            self._hold_start = stamp
+        if slip_flag and not holding:
+            self._last_flag = max(self._last_flag, stamp)
+        now = stamp if now is None else now
+        self._now = now
+        if wrench is not None and math.isfinite(wrench.force_z) \
+                and now - wrench.stamp <= p.wrench_timeout:
+            if self._wrench_start is None:
+                self._wrench_start = wrench.force_z
+            self._wrench = wrench
+
+    def _mean_shear(self) -> float | None:
+        recent = [item[3] for item in self._levels
+                  if item[0] >= self._levels[-1][0] - self.params.probe_window]
+        return sum(recent) / len(recent) if recent else None
+
+    def begin_probe(self) -> None:
+        """The set-down probe starts: remember the shear index of the carried grip."""
+        self._probe_reference = self._mean_shear() if self._levels else None
+
+    def _balance(self) -> tuple[float, float, float]:
+        """Mean left and right finger levels over the balance window and the allowed
+        difference."""
+        p = self.params
+        recent = [item for item in self._levels
+                  if item[0] >= self._levels[-1][0] - p.balance_window]
+        left = sum(item[1] for item in recent) / len(recent)
+        right = sum(item[2] for item in recent) / len(recent)
+        return left, right, p.balance_floor + p.balance_tolerance * (left + right)
+
+    def unequal_while_lifting(self, lift_height: float) -> str:
+        """Gross-slip evidence: the fingers still unequally loaded after the minimum lift.
+
+        Parameters
+        ----------
+        lift_height : float
+            Commanded lift so far [m].
+
+        Returns
+        -------
+        str
+            The evidence with its numbers; empty when there is none.
+        """
+        p = self.params
+        if not self._levels or lift_height < p.gross_slip_min_lift:
+            return ''
+        left, right, allowed = self._balance()
+        if abs(left - right) <= allowed or min(left, right) < p.min_finger_level:
+            return ''
+        return (f'finger levels {left:.4f} / {right:.4f} unequal by {abs(left - right):.4f} > '
+                f'{allowed:.4f} after {lift_height * 1000:.1f} mm of lift: the table still '
+                'holds the object')
+
+    def deformation_decay(self) -> str:
+        """Gross-slip evidence: the deformation level fell below its lift peak.
+
+        Returns
+        -------
+        str
+            The evidence with its numbers; empty when there is none.
+        """
+        p = self.params
+        if not self._levels or self._peak_level < 2 * p.min_finger_level:
+            return ''
+        level = self._levels[-1][1] + self._levels[-1][2]
+        if level >= (1.0 - p.gross_slip_decay) * self._peak_level:
+            return ''
+        return (f'deformation {level:.4f} fell below {1.0 - p.gross_slip_decay:g} x its lift '
+                f'peak {self._peak_level:.4f}: the contact slides off')
+
+    def verdict(self) -> LiftVerdict:
+        """Judge the lift from the evidence so far (called when the hold is over)."""
+        p = self.params
+        if not p.verify_lift:
+            return LiftVerdict(True, 'lift not verified (verify_lift off)')
+        if not self._levels:
+            return LiftVerdict(False, 'no tactile data during the lift to verify it')
+        left, right, allowed = self._balance()
+        pattern = f'finger levels {left:.4f} / {right:.4f}'
+        if min(left, right) < p.min_finger_level:
+            return LiftVerdict(False, f'{pattern}: a finger is not loaded')
+        if abs(left - right) > allowed:
+            return LiftVerdict(False, f'{pattern} unequal by {abs(left - right):.4f} > '
+                               f'{allowed:.4f}: the table still holds the object')
+        end = self._hold_start if self._hold_start is not None else self._levels[-1][0]
+        if self._last_flag > end - p.quiet_time:
+            return LiftVerdict(False, f'{pattern}; slip {end - self._last_flag:.2f} s before '
+                               'the end of the lift: the fingers were still sliding')
+        evidence = f'{pattern} equal, no slip in the last {p.quiet_time:g} s of the lift'
+        if self._probe_reference is not None:
+            change = self._mean_shear() - self._probe_reference
+            if abs(change) > p.probe_unload:
+                return LiftVerdict(False, f'{evidence}; set down {p.probe_distance * 1000:g} mm'
+                                   f', shear index changed {change:+.4f}: the object does not '
+                                   'hang from the fingers (the table took load)')
+            evidence += f', shear index {change:+.4f} when set down'
+        if p.use_wrench:
+            if self._wrench is None or self._wrench_start is None \
+                    or self._now - self._wrench.stamp > p.wrench_timeout:
+                return LiftVerdict(False, f'{evidence}; no fresh wrist wrench')
+            gained = self._wrench.force_z - self._wrench_start
+            if gained < p.min_wrench_load:
+                return LiftVerdict(False, f'{evidence}; wrist load grew {gained:.3f} N < '
+                                   f'{p.min_wrench_load:g} N')
+            evidence += f', wrist load +{gained:.3f} N'
+        return LiftVerdict(True, evidence)
+
+
+def closed_on_object_evidence(params: LiftCheckParams, command: float, theta: float,
+                              filtered: tuple[float, ...] | None, force: float | None,
+                              current: float | None, free_current: float | None) -> str:
+    """Evidence that a gripper which closed fully without a contact flag holds something.
+
+    Parameters
+    ----------
+    params : LiftCheckParams
+    command : float
+        The (closed) servo command [rad].
+    theta : float
+        Measured joint angle [rad].
+    filtered : tuple of 6 float or None
+        Latest tared filtered channels (None: no fresh valid perception).
+    force : float or None
+        Latest valid force estimate [N] (None: none).
+    current : float or None
+        Latest servo current [A] (None: not reported).
+    free_current : float or None
+        Servo current while closing freely at the start of the grasp [A].
+
+    Returns
+    -------
+    str
+        The evidence found, empty when the gripper closed on nothing.
+    """
+    found = []
+    if math.isfinite(theta) and theta > command + params.stall_tolerance:
+        found.append(f'joint stopped at {theta:.3f} rad, {theta - command:.3f} rad short of '
+                     'the command')
+    level = deformation_level(filtered)
+    if level is not None and level >= params.loaded_level:
+        found.append(f'deformation {level:.4f} >= {params.loaded_level:g}')
+    if force is not None and math.isfinite(force) and force >= params.loaded_force:
+        found.append(f'force {force:.3f} N >= {params.loaded_force:g} N')
+    if current is not None and free_current is not None and math.isfinite(current) \
+            and current - free_current >= params.loaded_current:
+        found.append(f'servo current {current:.3f} A, +{current - free_current:.3f} A over '
+                     'free closing')
+    return '; '.join(found)
+
+
+@dataclass
+class DropDetector:
+    """Detect a drop from the sensors during LIFTING / HOLDING.
+
+    Two signals are compared with a reference taken while the object is held (the maximum
+    seen since the lift started): the estimated force (when valid) and the deformation level
+    (mean absolute tared filtered value over the 6 channels, when given). A drop is declared
+    when either signal stays below its fraction of the reference for ``confirm_time``;
+    optionally also when both contact flags are false for that long. A detector is armed only
+    when its reference exceeds a minimum, so noise on an empty gripper never "drops".
+    """
+
+    params: ControllerParams   # drop_* fields
+    reference_force: float = 0.0
+    reference_level: float = 0.0
+    low_since: float | None = None
+    reason: str = ''
+
+    def update(self, perception: PerceptionInput, now: float) -> bool:
+        """Feed one fresh, valid perception sample; return True once a drop is confirmed."""
+        p = self.params
+        reasons = []
+        if perception.force_valid and math.isfinite(perception.force):
+            self.reference_force = max(self.reference_force, perception.force)
+            if (self.reference_force >= p.drop_min_reference_force
+                    and perception.force < p.drop_force_fraction * self.reference_force):
+                reasons.append(f'force {perception.force:.3f} N < {p.drop_force_fraction:g} x '
+                               f'{self.reference_force:.3f} N')
+        level = deformation_level(perception.filtered)
+        if level is not None:
+            self.reference_level = max(self.reference_level, level)
+            if (self.reference_level >= p.drop_min_reference_level
+                    and level < p.drop_level_fraction * self.reference_level):
+                reasons.append(f'deformation {level:.4f} < {p.drop_level_fraction:g} x '
+                               f'{self.reference_level:.4f}')
+        if p.drop_on_contact_loss and not any(perception.contact):
+            reasons.append('contact lost on both fingers')
+        if not reasons:
+            self.low_since = None
+            return False
+        if self.low_since is None:
+            self.low_since = now
+        self.reason = '; '.join(reasons)
+        return now - self.low_since >= p.drop_confirm_time

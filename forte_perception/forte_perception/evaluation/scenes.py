@@ -1,0 +1,483 @@
+"""Signal-level slip scenes: labelled six-channel recordings generated from seeds (issue 14).
+
+Each family stands for one situation in which the paper's slip detector was found to fail
+(or must keep working), built from the physics that matters for it and nothing else.
+Everything is computed in ADC steps (LSB, 1 LSB = 2/2048 of the normalised reading) and
+finally rounded to the 11-bit grid and clipped to the ADC range like the sensor.
+
+Common to every scene (``fs`` = 2000 Hz):
+
+- a **finger profile** (:data:`PROFILES`, the "object" of the split): the contact location
+  along the finger, which sets the channel pattern of pressure (distal > middle > root, the
+  simulator's channel kernel), the bending mode of the finger excited by stick-slip
+  releases (14-38 Hz, damping 0.07-0.12; the simulator's 30 Hz / sqrt(1 + m / 0.3 kg)
+  gives 17-30 Hz for its objects), how much of a release the other finger feels
+  through the object, and the static grip reading;
+- a **background**: per-channel zero offset (+-30 LSB), the static grip pattern, white
+  noise of standard deviation ``noise_lsb`` and the sensor's slow drift (random walk
+  0.27 LSB/sqrt(s), the simulator's value; it is what moves a signal whose noise is below
+  1 LSB across code boundaries);
+- **context** (what the robot commands): ``servo_command`` [rad] and ``arm_velocity``
+  [m/s].
+
+Families (``noise_lsb`` log-uniform in 0.3-2 LSB unless stated):
+
+``quiet_sub_lsb``, ``quiet_above_lsb``
+    20 s of holding still, white noise 0.15-0.95 LSB / 1-3 LSB. No slip; all holding.
+``closing_step``
+    Three grip tightenings (servo steps of the controller): the grip reading rises by
+    3-300 LSB (strongest channel) linearly over 10-100 ms (the servo's profile), then the
+    fin-ray elastomer relaxes (standard linear solid, 10 % with 1.5 s and 8 % with 15 s, as
+    in the simulator). Busy: the rise.
+``ramp``
+    Two slow ramps of 10-300 LSB over 0.3-4 s: a slow squeeze (grip pattern, servo moving)
+    or the lift loading the contacts (shear pattern 1 / 0.6 / -0.5, arm starting).
+    Busy: the ramp.
+``low_frequency``
+    The held object sways or the arm wobbles (not commanded): one or two sinusoids of
+    0.5-5 Hz, 3-100 LSB, a random mix of grip and shear pattern with a sign per finger,
+    for 4-8 s with 0.3 s raised-cosine edges. Busy: the episode.
+``high_frequency``
+    Motor hum while the arm moves: 62-150 Hz plus its second harmonic (0.3), 1-30 LSB with
+    a 20 % amplitude modulation at 0.5-2 Hz, on for 5-8 s with 50 ms edges, channel gains
+    0.3-1. The grasp is static: all holding.
+``stick_slip_<a>_<b>lsb``
+    During a lift, three stick-slip bursts of 0.1-0.6 s: releases at 10-50 Hz (period
+    jitter +-20 %, never shorter than 20 ms; jumps +-30 %) step the contact shear down
+    and ring the finger's bending mode (the simulator's resonator: ringing =
+    resonator(steps) - steps). Strength = peak ringing on the strongest channel of the
+    slipping finger, log-uniform in [a, b] LSB; the other finger feels the profile's
+    coupling (0.4-0.7) of it. The static shear steps are
+    1/30 of the ringing per release (the simulator's shear / vibration gains). Event: first
+    release to last release + 0.1 s (the simulator's stick-slip label).
+``leading_finger``
+    As stick-slip, 2-100 LSB, on one finger only (left or right, drawn): the other finger
+    feels nothing.
+``gross_smooth``
+    During a lift, two episodes of smooth gross slip: the grip / shear pattern of both
+    fingers decays monotonically (raised cosine) by 5-100 LSB over 0.5-3 s, without
+    vibration (the contacts slide at kinetic friction); the object then sticks again.
+    Strength = total decay on the strongest channel.
+
+Labels: slip events as above; *busy* = the distractor plus the detector's reach after it
+(0.25 s: window 400 + history 14 x 4 + median 5 samples); holding still = the rest from
+``EVALUATE_FROM`` on, minus ``[onset, end + 0.5 s]`` of every event (see
+:mod:`forte_perception.evaluation.labels`).
+
+Split: profiles ``p0 p2 p4 p6`` with seeds 0, 2, 4, 6 are *tune*; ``p1 p3 p5 p7`` with
+seeds 1, 3, 5, 7 are *held-out*. The held-out profiles' resonances (17, 23, 29, 38 Hz) lie
+between and above the tune ones (14, 20, 26, 33 Hz).
+"""
+from __future__ import annotations
+
+import math
+import zlib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import partial
+
+import numpy as np
+from scipy.signal import lfilter
+
+from forte_perception.evaluation.labels import (
+    EVALUATE_FROM,
+    FINGER_BOTH,
+    FINGER_LEFT,
+    FINGER_RIGHT,
+    SPLITS,
+    SlipScene,
+    subtract_intervals,
+)
+from forte_ros.contract import QUANTUM as LSB
+from forte_ros.contract import SAMPLE_RATE as FS
+
+__all__ = ['FAMILIES', 'FS', 'LSB', 'PROFILES', 'FingerProfile', 'burst_component',
+           'make_scene', 'quantise_lsb', 'scene_keys', 'signal_scenes']
+
+DRIFT_LSB_PER_SQRT_S = 0.27
+DETECTOR_REACH = 0.25     # [s] a distractor stays in the detector's window this long
+SLIP_GRACE = 0.5          # [s] after a slip event ends, flags still count as true
+LIFT_VELOCITY = 0.005     # [m/s] commanded arm velocity while lifting
+GRIP_ANGLE = 0.3          # [rad] commanded servo angle while holding
+SEEDS_PER_SPLIT = 4
+_NOISE = (1.0, 2.0)
+_NORMAL_BASE = np.array([0.026, 0.016, 0.010])
+_CENTRES = np.array([0.15, 0.50, 0.85])
+_TRIM = np.array([[1.00, 0.94, 1.07], [1.05, 0.97, 0.92]])
+_SHEAR = np.array([1.0, 0.6, -0.5])
+_VIBRATION = np.array([1.0, 0.667, 0.417])
+_SHEAR_PER_RING = 1.0 / 30.0   # static shear step / ringing per release (0.004 / 0.12)
+
+
+@dataclass(frozen=True)
+class FingerProfile:
+    """A finger / contact configuration: the "object" of the signal-level split.
+
+    Attributes
+    ----------
+    name : str
+    contact : float
+        Contact location along the finger, 0 = tip, 1 = root [-].
+    resonance_hz : float
+        Bending mode rung by stick-slip releases [Hz].
+    damping : float
+        Damping ratio of that mode [-].
+    coupling : float
+        Fraction of a release the other finger feels through the object [-].
+    grip_lsb : float
+        Static grip reading on the strongest channel [LSB].
+    """
+
+    name: str
+    contact: float
+    resonance_hz: float
+    damping: float
+    coupling: float
+    grip_lsb: float
+
+    @property
+    def split(self) -> str:
+        """'tune' for p0, p2, ...; 'held_out' for p1, p3, ..."""
+        return SPLITS[int(self.name[1:]) % 2]
+
+    def pattern(self, kind: str) -> np.ndarray:
+        """Channel pattern (2, 3) of 'normal', 'shear' or 'vibration', strongest |value| 1."""
+        if kind == 'normal':
+            kernel = 0.55 + 0.45 * np.exp(-((self.contact - _CENTRES) / 0.35) ** 2)
+            base = _NORMAL_BASE * kernel
+        elif kind == 'shear':
+            base = _SHEAR
+        else:
+            base = _VIBRATION
+        p = base[None, :] * _TRIM
+        return p / np.abs(p).max(axis=1, keepdims=True)
+
+
+PROFILES = (
+    FingerProfile('p0', 0.20, 14.0, 0.08, 0.50, 120.0),
+    FingerProfile('p1', 0.30, 17.0, 0.10, 0.60, 200.0),
+    FingerProfile('p2', 0.40, 20.0, 0.12, 0.40, 300.0),
+    FingerProfile('p3', 0.50, 23.0, 0.07, 0.70, 80.0),
+    FingerProfile('p4', 0.60, 26.0, 0.10, 0.55, 250.0),
+    FingerProfile('p5', 0.70, 29.0, 0.09, 0.45, 150.0),
+    FingerProfile('p6', 0.35, 33.0, 0.11, 0.65, 180.0),
+    FingerProfile('p7', 0.45, 38.0, 0.08, 0.50, 100.0),
+)
+_PROFILE = {p.name: p for p in PROFILES}
+
+
+@dataclass
+class _Draft:
+    """What a family adds to the background: signal [LSB], labels, context, parameters."""
+
+    signal: np.ndarray
+    events: list[tuple[int, int, int, str, float]] = field(default_factory=list)
+    busy: list[tuple[int, int]] = field(default_factory=list)
+    servo: np.ndarray | None = None
+    arm: np.ndarray | None = None
+    params: dict = field(default_factory=dict)
+
+
+def quantise_lsb(x_lsb: np.ndarray) -> np.ndarray:
+    """Values in LSB -> normalised 11-bit readings (round to the grid, clip to the ADC)."""
+    return np.clip(np.rint(x_lsb), -1024, 1023) * LSB
+
+
+def _loguniform(rng: np.random.Generator, low: float, high: float) -> float:
+    return float(math.exp(rng.uniform(math.log(low), math.log(high))))
+
+
+def _both(pattern: np.ndarray, series: np.ndarray, weights=(1.0, 1.0)) -> np.ndarray:
+    """(n, 6) from a (2, 3) pattern and a (n,) series, finger weights (left, right)."""
+    w = np.repeat(np.asarray(weights, float), 3) * pattern.reshape(6)
+    return series[:, None] * w[None, :]
+
+
+def _resonator(frequency: float, damping: float) -> tuple[np.ndarray, np.ndarray]:
+    """Unit-DC-gain 2nd-order low-pass resonator (bilinear, prewarped), as the simulator."""
+    omega = 2.0 * FS * math.tan(math.pi * frequency / FS)
+    k = 2.0 * FS
+    a0 = k * k + 2.0 * damping * omega * k + omega * omega
+    b = np.array([1.0, 2.0, 1.0]) * omega * omega / a0
+    a = np.array([1.0, (2.0 * omega * omega - 2.0 * k * k) / a0,
+                  (k * k - 2.0 * damping * omega * k + omega * omega) / a0])
+    return b, a
+
+
+def burst_component(n: int, onset: int, duration: float, rate_hz: float,
+                    resonance_hz: float, damping: float, strength: float,
+                    rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, int]:
+    """One stick-slip burst on one finger's strongest channel.
+
+    Returns
+    -------
+    ringing : ndarray (n,)
+        Bending-mode ringing, peak ``|ringing|`` = ``strength`` [LSB].
+    static : ndarray (n,)
+        The static shear steps (negative, 1/30 of the ringing per release) [LSB].
+    last : int
+        Sample of the last release.
+    """
+    times, t = [], float(onset)
+    while t < onset + duration * FS:
+        times.append(int(t))
+        t += max(FS / rate_hz * rng.uniform(0.8, 1.2), FS / 50.0)
+    drive = np.zeros(n)
+    np.add.at(drive, np.array(times), rng.uniform(0.7, 1.3, len(times)))
+    drive = np.cumsum(drive)
+    b, a = _resonator(resonance_hz, damping)
+    ringing = lfilter(b, a, drive) - drive
+    scale = strength / np.abs(ringing).max()
+    return ringing * scale, -drive * scale * _SHEAR_PER_RING, times[-1]
+
+
+# ------------------------------------------------------------------------------ families
+def _quiet(rng, profile, n) -> _Draft:
+    return _Draft(np.zeros((n, 6)))
+
+
+def _closing_steps(rng, profile, n) -> _Draft:
+    draft = _Draft(np.zeros((n, 6)), servo=np.full(n, GRIP_ANGLE))
+    normal = profile.pattern('normal')
+    steps = []
+    for centre in (2.0, 5.5, 9.0):
+        t0 = int((centre + rng.uniform(-0.5, 0.5)) * FS)
+        amp, rise = _loguniform(rng, 3.0, 300.0), rng.uniform(0.01, 0.1)
+        u = np.clip((np.arange(n) - t0) / (rise * FS), 0.0, 1.0)
+        du = np.diff(u, prepend=0.0)
+        relax = sum(a * lfilter([1.0], [1.0, -math.exp(-1.0 / (tau * FS))], du)
+                    for a, tau in ((0.10, 1.5), (0.08, 15.0)))
+        balance = rng.uniform(0.8, 1.2)
+        draft.signal += _both(normal, amp * (u + relax) / 1.18, (1.0, balance))
+        draft.servo[t0:] -= amp * 1e-4
+        draft.busy.append((t0, t0 + int(rise * FS) + 1))
+        steps.append({'time_s': t0 / FS, 'amplitude_lsb': amp, 'rise_s': rise})
+    draft.params['steps'] = steps
+    return draft
+
+
+def _ramps(rng, profile, n) -> _Draft:
+    draft = _Draft(np.zeros((n, 6)), servo=np.full(n, GRIP_ANGLE), arm=np.zeros(n))
+    ramps = []
+    for start_range in ((1.5, 2.5), (7.0, 7.5)):
+        t0 = int(rng.uniform(*start_range) * FS)
+        length = _loguniform(rng, 0.3, 4.0)
+        amp = _loguniform(rng, 10.0, 300.0) * rng.choice((-1.0, 1.0))
+        kind = str(rng.choice(('squeeze', 'lift_load')))
+        u = np.clip((np.arange(n) - t0) / (length * FS), 0.0, 1.0)
+        pattern = profile.pattern('normal' if kind == 'squeeze' else 'shear')
+        draft.signal += _both(pattern, amp * u, (1.0, rng.uniform(0.8, 1.2)))
+        if kind == 'squeeze':
+            draft.servo -= amp * 1e-4 * u
+        else:
+            draft.arm[t0:] = LIFT_VELOCITY
+        draft.busy.append((t0, t0 + int(length * FS) + 1))
+        ramps.append({'time_s': t0 / FS, 'amplitude_lsb': amp, 'length_s': length,
+                      'kind': kind})
+    draft.params['ramps'] = ramps
+    return draft
+
+
+def _edges(n: int, start: int, stop: int, edge: float) -> np.ndarray:
+    """Envelope 0 -> 1 -> 0 with raised-cosine edges of ``edge`` seconds."""
+    k = np.arange(n)
+    e = max(int(edge * FS), 1)
+    rise = np.clip((k - start) / e, 0.0, 1.0)
+    fall = np.clip((stop - k) / e, 0.0, 1.0)
+    return 0.5 * (1.0 - np.cos(np.pi * np.minimum(rise, fall)))
+
+
+def _low_frequency(rng, profile, n) -> _Draft:
+    draft = _Draft(np.zeros((n, 6)))
+    t0 = int(rng.uniform(1.5, 3.0) * FS)
+    stop = t0 + int(rng.uniform(4.0, 8.0) * FS)
+    env = _edges(n, t0, stop, 0.3)
+    t = np.arange(n) / FS
+    mix = rng.uniform(0.0, 1.0)
+    pattern = mix * profile.pattern('normal') + (1.0 - mix) * profile.pattern('shear')
+    pattern = pattern / np.abs(pattern).max()
+    amp = _loguniform(rng, 3.0, 100.0)
+    parts = []
+    for k in range(int(rng.integers(1, 3))):
+        f = _loguniform(rng, 0.5, 5.0)
+        a = amp * (1.0 if k == 0 else rng.uniform(0.3, 1.0))
+        wave = a * np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi))
+        draft.signal += _both(pattern, env * wave, rng.choice((-1.0, 1.0), 2))
+        parts.append({'frequency_hz': f, 'amplitude_lsb': a})
+    draft.busy.append((t0, stop))
+    draft.params.update(components=parts, start_s=t0 / FS, stop_s=stop / FS)
+    return draft
+
+
+def _high_frequency(rng, profile, n) -> _Draft:
+    draft = _Draft(np.zeros((n, 6)), arm=np.zeros(n))
+    t0 = int(rng.uniform(1.5, 3.0) * FS)
+    stop = t0 + int(rng.uniform(5.0, 8.0) * FS)
+    env = _edges(n, t0, stop, 0.05)
+    t = np.arange(n) / FS
+    f0, amp, fm = rng.uniform(62.0, 150.0), _loguniform(rng, 1.0, 30.0), rng.uniform(0.5, 2.0)
+    gains = rng.uniform(0.3, 1.0, 6)
+    gains /= gains.max()
+    phase = rng.uniform(0, 2 * np.pi, 2)
+    hum = (np.sin(2 * np.pi * f0 * t + phase[0]) + 0.3 * np.sin(4 * np.pi * f0 * t + phase[1]))
+    hum *= amp / 1.3 * env * (1.0 + 0.2 * np.sin(2 * np.pi * fm * t))
+    draft.signal += hum[:, None] * gains[None, :]
+    draft.arm[t0:stop] = LIFT_VELOCITY
+    draft.params.update(frequency_hz=f0, amplitude_lsb=amp, modulation_hz=fm,
+                        start_s=t0 / FS, stop_s=stop / FS)
+    return draft
+
+
+def _stick_slip(rng, profile, n, strength: tuple[float, float], both: bool) -> _Draft:
+    draft = _Draft(np.zeros((n, 6)), arm=np.full(n, LIFT_VELOCITY))
+    vib, shear = profile.pattern('vibration'), profile.pattern('shear')
+    bursts = []
+    for centre in (2.5, 6.0, 9.5):
+        onset = int((centre + rng.uniform(-0.4, 0.4)) * FS)
+        duration, rate = rng.uniform(0.1, 0.6), rng.uniform(10.0, 50.0)
+        amp = _loguniform(rng, *strength)
+        resonance = profile.resonance_hz * rng.uniform(0.95, 1.05)
+        ringing, static, last = burst_component(n, onset, duration, rate, resonance,
+                                                profile.damping, amp, rng)
+        finger = int(rng.integers(0, 2))
+        weights = np.zeros(2)
+        weights[finger] = 1.0
+        if both:
+            weights[1 - finger] = profile.coupling
+        draft.signal += _both(vib, ringing, weights) + _both(shear, static, weights)
+        fingers = FINGER_BOTH if both else (FINGER_LEFT, FINGER_RIGHT)[finger]
+        end = last + int(0.1 * FS)
+        draft.events.append((onset, end, fingers, 'stick_slip', amp))
+        bursts.append({'onset_s': onset / FS, 'duration_s': duration, 'rate_hz': rate,
+                       'resonance_hz': resonance, 'strength_lsb': amp, 'finger': finger})
+    draft.params['bursts'] = bursts
+    return draft
+
+
+def _gross_smooth(rng, profile, n) -> _Draft:
+    draft = _Draft(np.zeros((n, 6)), arm=np.full(n, LIFT_VELOCITY))
+    k = np.arange(n)
+    onset = int(rng.uniform(2.5, 3.5) * FS)
+    episodes = []
+    for _ in range(2):
+        room = (n - onset) / FS - SLIP_GRACE - 0.1
+        length = min(rng.uniform(0.5, 3.0), room)
+        amp = _loguniform(rng, 5.0, 100.0)
+        mix = rng.uniform(0.3, 1.0)
+        pattern = mix * profile.pattern('normal') + (1.0 - mix) * profile.pattern('shear')
+        pattern = pattern / np.abs(pattern).max()
+        s = 0.5 * (1.0 - np.cos(np.pi * np.clip((k - onset) / (length * FS), 0.0, 1.0)))
+        draft.signal -= _both(pattern, amp * s)
+        end = onset + int(length * FS)
+        draft.events.append((onset, end, FINGER_BOTH, 'gross', amp))
+        episodes.append({'onset_s': onset / FS, 'length_s': length, 'decay_lsb': amp,
+                         'normal_share': mix})
+        onset = end + int(rng.uniform(1.5, 2.5) * FS)
+    draft.params['episodes'] = episodes
+    return draft
+
+
+def _family(builder: Callable, seconds: float, noise: tuple[float, float] = _NOISE,
+            **kwargs) -> tuple[Callable, float, tuple[float, float]]:
+    return partial(builder, **kwargs), seconds, noise
+
+
+#: family name -> (builder, seconds, noise range [LSB])
+FAMILIES: dict[str, tuple[Callable, float, tuple[float, float]]] = {
+    'quiet_sub_lsb': _family(_quiet, 20.0, (0.15, 0.95)),
+    'quiet_above_lsb': _family(_quiet, 20.0, (1.0, 3.0)),
+    'closing_step': _family(_closing_steps, 12.0),
+    'ramp': _family(_ramps, 12.0),
+    'low_frequency': _family(_low_frequency, 12.0),
+    'high_frequency': _family(_high_frequency, 12.0),
+    'stick_slip_1_3lsb': _family(_stick_slip, 12.0, strength=(1.0, 3.0), both=True),
+    'stick_slip_3_10lsb': _family(_stick_slip, 12.0, strength=(3.0, 10.0), both=True),
+    'stick_slip_10_30lsb': _family(_stick_slip, 12.0, strength=(10.0, 30.0), both=True),
+    'stick_slip_30_100lsb': _family(_stick_slip, 12.0, strength=(30.0, 100.0), both=True),
+    'leading_finger': _family(_stick_slip, 12.0, strength=(2.0, 100.0), both=False),
+    'gross_smooth': _family(_gross_smooth, 13.0),
+}
+
+
+# ------------------------------------------------------------------------------ scenes
+def _background(rng, profile: FingerProfile, n: int, noise_lsb: float,
+                noise_free: bool) -> np.ndarray:
+    """Offsets + static grip + white noise + drift, (n, 6) [LSB]."""
+    base = rng.uniform(-30.0, 30.0, 6) + profile.grip_lsb * profile.pattern('normal').reshape(6)
+    white = rng.standard_normal((n, 6))
+    steps = rng.standard_normal((n, 6)) * (DRIFT_LSB_PER_SQRT_S / math.sqrt(FS))
+    if noise_free:
+        return np.broadcast_to(base, (n, 6)).copy()
+    return base + white * noise_lsb + np.cumsum(steps, axis=0)
+
+
+def make_scene(family: str, profile: str, seed: int, *, quantised: bool = True,
+               noise_free: bool = False) -> SlipScene:
+    """One labelled signal-level scene.
+
+    Parameters
+    ----------
+    family : str
+        A key of :data:`FAMILIES`.
+    profile : str
+        A finger profile name of :data:`PROFILES` ('p0' .. 'p7').
+    seed : int
+        Its parity must match the profile's split (even: tune profiles, odd: held-out).
+    quantised : bool
+        False: the analog signal (normalised units, not rounded), for tests.
+    noise_free : bool
+        Without white noise and drift (for tests of the family's own signal).
+
+    Raises
+    ------
+    ValueError
+        Unknown family or profile, or a seed of the other split.
+    """
+    if family not in FAMILIES:
+        raise ValueError(f'unknown family {family!r}; expected one of {tuple(FAMILIES)}')
+    if profile not in _PROFILE:
+        raise ValueError(f'unknown profile {profile!r}')
+    prof = _PROFILE[profile]
+    if SPLITS[seed % 2] != prof.split:
+        raise ValueError(f'seed {seed} belongs to the other split than profile {profile}')
+    builder, seconds, noise = FAMILIES[family]
+    n = int(seconds * FS)
+    rng = np.random.default_rng([zlib.crc32(family.encode()), int(profile[1:]), seed])
+    noise_lsb = _loguniform(rng, *noise)
+    background = _background(rng, prof, n, noise_lsb, noise_free)
+    draft = builder(rng, prof, n)
+    x = background + draft.signal
+    frames = quantise_lsb(x) if quantised else x * LSB
+    reach, grace = int(DETECTOR_REACH * FS), int(SLIP_GRACE * FS)
+    remove = [(a, b + grace) for a, b, *_ in draft.events] + [(a, b + reach)
+                                                              for a, b in draft.busy]
+    ev = draft.events
+    context = {'servo_command': draft.servo if draft.servo is not None
+               else np.full(n, GRIP_ANGLE),
+               'arm_velocity': draft.arm if draft.arm is not None else np.zeros(n)}
+    return SlipScene(
+        name=f'{family}/{profile}/{seed}', family=family, split=prof.split, source='signal',
+        object_name=profile, seed=seed, frames=frames,
+        events=np.array([e[:2] for e in ev], np.int64).reshape(-1, 2),
+        event_fingers=[e[2] for e in ev], event_kinds=tuple(e[3] for e in ev),
+        event_strength=[e[4] for e in ev],
+        holding=subtract_intervals(EVALUATE_FROM, n, remove), fs=FS,
+        evaluate_from=EVALUATE_FROM, context=context,
+        params={'noise_lsb': noise_lsb, **draft.params})
+
+
+def scene_keys(split: str | None = None, families=None) -> list[tuple[str, str, int]]:
+    """(family, profile, seed) of every scene of the set (or of one split / some families)."""
+    keys = []
+    for family in (families or FAMILIES):
+        for prof in PROFILES:
+            if split is not None and prof.split != split:
+                continue
+            first = SPLITS.index(prof.split)
+            keys += [(family, prof.name, first + 2 * i) for i in range(SEEDS_PER_SPLIT)]
+    return keys
+
+
+def signal_scenes(split: str | None = None, families=None) -> list[SlipScene]:
+    """Every signal-level scene of the set (or of one split / some families)."""
+    return [make_scene(*key) for key in scene_keys(split, families)]

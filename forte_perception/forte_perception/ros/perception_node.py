@@ -1,0 +1,482 @@
+"""ROS 2 shell around :class:`forte_perception.pipeline.PerceptionPipeline`.
+
+Subscribes ``tactile/frames`` (forte_msgs/TactileFrames, sensor-data QoS: best effort, keep
+last 50), publishes ``tactile/state`` (forte_msgs/TactileState, reliable, keep last 50) at
+every force instant inside an input message and at its end (one state per 20-sample message
+at the default 100 Hz; a 200-sample message gives 10 states, so the force rate does not
+depend on the driver's batch size), serves ``perception/tare`` (forte_msgs/srv/Tare) and
+``perception/reset`` (std_srvs/srv/Trigger), and publishes ``/diagnostics`` at 1 Hz.
+
+Input checks (each counted, reported in diagnostics, never invented):
+
+- ``first_sequence`` must continue the previous message (``previous first_sequence +
+  sample_count``). A jump forward is a gap of that many samples; a jump backwards (driver
+  restart, looped replay) is a discontinuity. Both restart the pipeline's median filter,
+  contact window and slip detector (see ``forte_perception.pipeline``) and make the next
+  state ``data_valid = false``; ``input_gaps`` counts them.
+- ``channel_names`` must be the contract's six names (any order: columns are reordered) or
+  empty (contract order assumed); ``data`` must hold ``sample_count x 6`` values;
+  ``sample_period`` must match ``sample_rate`` within 1 %. Otherwise the message is
+  dropped (a gap follows).
+- Invalid values (NaN, inf, ``|x| > input_limit``) mask only their channel (see
+  ``forte_perception.channel_health``); counted per channel, reported in ``channel_health``
+  and per channel in ``/diagnostics`` (ERROR while invalid values arrive, WARN when a
+  channel is stuck or railed).
+- No input for ``stale_timeout`` seconds: a state with ``data_valid = false`` is published
+  every ``stale_timeout`` until input returns.
+
+Header stamp of a state = sample time of the latest input sample used (input stamp +
+(sample_count - 1) * sample_period); ``sample_index`` counts the samples received since
+the pipeline (re)started (lost samples are not counted).
+
+Threading: ``main`` spins a SingleThreadedExecutor (the cheapest per message). The tare
+service is a coroutine that waits for its quiet period on a future completed by the frames
+callback, so it never blocks the frames. A lock guards the pipeline, so the node also works
+in a MultiThreadedExecutor.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from rcl_interfaces.msg import (
+    ParameterDescriptor,
+    SetParametersResult,
+)
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.node import Node
+from rclpy.task import Future
+from std_srvs.srv import Trigger
+
+from forte_msgs.msg import TactileFrames, TactileState
+from forte_msgs.srv import Tare
+from forte_perception.channel_health import channel_report
+from forte_perception.force import ForceModel
+from forte_perception.pipeline import PerceptionOutput, PerceptionPipeline, PipelineConfig
+from forte_perception.slip.detector import SlipParams
+from forte_perception.slip.params import RECOMMENDED_MODE
+from forte_ros import run_node
+from forte_ros.contract import CHANNEL_NAMES, SAMPLE_RATE
+from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
+from forte_ros.parameters import parameter_descriptor
+from forte_ros.qos import DIAGNOSTICS, SENSOR_FRAMES, TACTILE_STATE
+
+#: Pipeline parameters: name -> (default, description, (low, high), config path).
+PIPELINE_PARAMETERS: dict[str, tuple] = {
+    'median_window': (11, 'running median length M [samples]', (1, 201), 'median_window'),
+    'contact_window': (200, 'contact window w [samples]', (2, 20000), 'contact_window'),
+    'contact_threshold': (0.01, 'contact threshold tau, max - min over w [normalised units; '
+                          '0.01 = 0.5 % of the 2.0 span]', (1e-6, 2.0), 'contact_threshold'),
+    'tare_duration': (2.0, 'quiet period averaged by a tare [s]', (0.001, 60.0),
+                      'tare_duration'),
+    'auto_tare': (True, 'tare from the first quiet period after (re)start', None, 'auto_tare'),
+    'force_rate': (100.0, 'force estimates per second; sample_rate / force_rate must be an '
+                   'integer [Hz]', (0.1, 20000.0), 'force_rate'),
+    'slip_window': (400, 'slip FFT window N [samples]', (8, 8192), 'slip.window'),
+    'slip_hop': (4, 'samples between slip detector updates (1 = every sample)', (1, 8192),
+                 'slip.hop'),
+    'slip_f_min': (10.0, 'slip band lower edge [Hz]', (0.0, 1e5), 'slip.f_min'),
+    'slip_f_max': (50.0, 'slip band upper edge [Hz]', (0.0, 1e5), 'slip.f_max'),
+    'slip_history': (15, 'PSD history length V [updates]', (2, 1000), 'slip.history'),
+    'slip_delta': (0.1, 'minimal increment for monotonicity delta [dB]', (-1e3, 1e3),
+                   'slip.delta'),
+    'slip_alpha': (0.6, 'minimum group average variance alpha [dB^2]', (-1e3, 1e6),
+                   'slip.alpha'),
+    'slip_threshold': (2.0, 'slip threshold T [dB^2]', (-1e3, 1e6), 'slip.threshold'),
+    'slip_mode': (RECOMMENDED_MODE, "slip detector mode: 'robust' (quantisation floor, "
+                  "level-shift veto, one finger alone; wins on the held-out slip set) or "
+                  "'paper' (the paper's algorithm bit for bit)", None, 'slip.mode'),
+    'input_limit': (1.0, 'largest valid |raw value| [normalised units; the protocol clips at '
+                    '+-1024 counts = +-1.0]; beyond it, or NaN/inf, a value is invalid: its '
+                    'channel is masked, the others continue', (1e-3, 1e6), 'input_limit'),
+    'stuck_duration': (5.0, 'a channel exactly constant this long is reported stuck (WARN, '
+                       'not invalidating) [s]', (0.01, 3600.0), 'stuck_duration'),
+}
+
+
+def build_config(values: dict, sample_rate: float) -> PipelineConfig:
+    """PipelineConfig from parameter values (raises ValueError with a reason)."""
+    slip = SlipParams(
+        window=int(values['slip_window']), hop=int(values['slip_hop']),
+        f_min=float(values['slip_f_min']), f_max=float(values['slip_f_max']),
+        history=int(values['slip_history']), delta=float(values['slip_delta']),
+        alpha=float(values['slip_alpha']), threshold=float(values['slip_threshold']),
+        mode=str(values['slip_mode']))
+    config = PipelineConfig(
+        fs=float(sample_rate), median_window=int(values['median_window']),
+        contact_window=int(values['contact_window']),
+        contact_threshold=float(values['contact_threshold']),
+        tare_duration=float(values['tare_duration']), auto_tare=bool(values['auto_tare']),
+        force_rate=float(values['force_rate']), slip=slip,
+        input_limit=float(values['input_limit']),
+        stuck_duration=float(values['stuck_duration']))
+    config.validate()
+    return config
+
+
+def load_model(path: str) -> ForceModel | None:
+    """The model at ``path`` ('' = none); raises ValueError with a reason."""
+    if not path:
+        return None
+    if not Path(path).is_file():
+        raise ValueError(f'model_path {path!r}: no such file')
+    try:
+        return ForceModel.load(path)
+    except (OSError, ValueError, KeyError) as exc:
+        raise ValueError(f'model_path {path!r}: {exc}') from exc
+
+
+class PerceptionNode(Node):
+    """The FORTE perception node (see the module docstring)."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('perception', **kwargs)
+        self.declare_parameter('model_path', '', ParameterDescriptor(
+            description='force model file (.npz written by forte_train_force); empty: no '
+                        'force estimate (force_valid false)'))
+        self.declare_parameter('sample_rate', SAMPLE_RATE, parameter_descriptor(
+            'expected input sample rate [Hz]; messages with another sample_period are dropped',
+            SAMPLE_RATE, (1.0, 1e6), read_only=True))
+        self.declare_parameter('frame_id', 'forte_base_link', ParameterDescriptor(
+            description='frame_id of tactile/state when the input has none'))
+        self.declare_parameter('stale_timeout', 0.1, parameter_descriptor(
+            'no input for this long -> publish data_valid false [s]', 0.1, (0.001, 60.0)))
+        self.declare_parameter('diagnostics_period', 1.0, parameter_descriptor(
+            'period of /diagnostics [s]', 1.0, (0.05, 60.0), read_only=True))
+        for name, (default, description, bounds, _) in PIPELINE_PARAMETERS.items():
+            self.declare_parameter(name, default,
+                                   parameter_descriptor(description, default, bounds))
+
+        self._lock = threading.RLock()
+        self._sample_rate = float(self.get_parameter('sample_rate').value)
+        values = {name: self.get_parameter(name).value for name in PIPELINE_PARAMETERS}
+        config = build_config(values, self._sample_rate)  # raises: bad YAML stops the node
+        model = load_model(str(self.get_parameter('model_path').value))
+        self._pipeline = PerceptionPipeline(config, model)
+        self._frame_id = str(self.get_parameter('frame_id').value)
+        self._stale_timeout = float(self.get_parameter('stale_timeout').value)
+        self._expected_sequence: int | None = None
+        self._gap_offset = 0  # gaps counted by pipelines before a reset
+        self._last_input = time.monotonic()
+        self._stale_published = False
+        self._tare_future: Future | None = None
+        self.counters = {
+            'messages': 0, 'samples': 0, 'sequence_gaps': 0, 'lost_samples': 0,
+            'sequence_resets': 0, 'rejected_messages': 0, 'slip_messages': 0,
+            'stale_states': 0, 'published': 0,
+        }
+        self._last_reject_reason = ''
+        self._driver_counts = (0, 0)  # dropped, corrupt frames reported by the driver
+        self._processing = deque(maxlen=2000)  # seconds per message
+        self._arrivals = deque(maxlen=4000)  # monotonic arrival times
+        self._last_output: PerceptionOutput | None = None
+        self._last_stamp = None
+        self._health_snapshot = None  # channel counts at the previous diagnostics
+
+        self._group = MutuallyExclusiveCallbackGroup()
+        self._service_group = ReentrantCallbackGroup()
+        self._state_pub = self.create_publisher(TactileState, 'tactile/state', TACTILE_STATE)
+        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', DIAGNOSTICS)
+        self.create_subscription(TactileFrames, 'tactile/frames', self._on_frames,
+                                 SENSOR_FRAMES, callback_group=self._group)
+        self.create_service(Tare, 'perception/tare', self._on_tare,
+                            callback_group=self._service_group)
+        self.create_service(Trigger, 'perception/reset', self._on_reset,
+                            callback_group=self._service_group)
+        self._stale_timer = self.create_timer(self._stale_timeout, self._check_stale,
+                                              callback_group=self._group)
+        self.create_timer(float(self.get_parameter('diagnostics_period').value),
+                          self._publish_diagnostics, callback_group=self._group)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.get_logger().info(
+            f'perception up: fs={self._sample_rate:g} Hz, force model '
+            f'{"loaded" if model is not None else "none"}, slip N={config.slip.window} '
+            f'hop={config.slip.hop}')
+
+    # ------------------------------------------------------------------ parameters
+    def _on_set_parameters(self, parameters) -> SetParametersResult:
+        with self._lock:
+            values = {name: self.get_parameter(name).value for name in PIPELINE_PARAMETERS}
+            pipeline_change = False
+            model = self._pipeline.model
+            model_change = False
+            stale = None
+            for p in parameters:
+                if p.name in PIPELINE_PARAMETERS:
+                    default = PIPELINE_PARAMETERS[p.name][0]
+                    for kind, word in ((bool, 'a boolean'), (str, 'a string')):
+                        if isinstance(default, kind) != isinstance(p.value, kind):
+                            return SetParametersResult(successful=False,
+                                                       reason=f'{p.name} must be {word}')
+                    values[p.name] = p.value
+                    pipeline_change = True
+                elif p.name == 'model_path':
+                    try:
+                        model = load_model(str(p.value))
+                    except ValueError as exc:
+                        return SetParametersResult(successful=False, reason=str(exc))
+                    model_change = True
+                elif p.name == 'stale_timeout':
+                    if not (isinstance(p.value, float) and p.value > 0):
+                        return SetParametersResult(successful=False,
+                                                   reason='stale_timeout must be > 0 s')
+                    stale = float(p.value)
+            config = None
+            if pipeline_change:
+                try:
+                    config = build_config(values, self._sample_rate)
+                except (ValueError, TypeError) as exc:
+                    return SetParametersResult(successful=False, reason=str(exc))
+            # all checks passed: apply
+            if config is not None:
+                self._gap_offset += self._pipeline.gaps
+                self._pipeline.config = config
+                self._pipeline.reset()
+                self.get_logger().info('pipeline parameters changed: pipeline restarted')
+            if model_change:
+                self._pipeline.set_model(model)
+                self.get_logger().info(
+                    f'force model {"loaded" if model is not None else "removed"}')
+            if stale is not None:
+                self._stale_timeout = stale
+                self._stale_timer.cancel()
+                self._stale_timer = self.create_timer(stale, self._check_stale,
+                                                      callback_group=self._group)
+            for p in parameters:
+                if p.name == 'frame_id':
+                    self._frame_id = str(p.value)
+        return SetParametersResult(successful=True)
+
+    # ------------------------------------------------------------------ frames
+    def _reject(self, reason: str) -> None:
+        self.counters['rejected_messages'] += 1
+        self._last_reject_reason = reason
+        self._pipeline.mark_gap()
+        self._expected_sequence = None
+        self.get_logger().warn(f'tactile/frames message dropped: {reason}',
+                               throttle_duration_sec=1.0)
+
+    def _frames_array(self, msg: TactileFrames) -> np.ndarray | None:
+        count = int(msg.sample_count)
+        names = list(msg.channel_names)
+        width = len(names) if names else 6
+        data = np.asarray(msg.data, dtype=np.float64)
+        if data.size != count * width:
+            self._reject(f'data has {data.size} values, expected {count} x {width}')
+            return None
+        frames = data.reshape(count, width)
+        if names and tuple(names) != CHANNEL_NAMES:
+            if sorted(names) != sorted(CHANNEL_NAMES) or len(set(names)) != 6:
+                self._reject(f'unknown channel_names {names}')
+                return None
+            frames = frames[:, [names.index(c) for c in CHANNEL_NAMES]]
+        if count and msg.sample_period > 0 and \
+                abs(msg.sample_period * self._sample_rate - 1.0) > 0.01:
+            self._reject(f'sample_period {msg.sample_period} s does not match sample_rate '
+                         f'{self._sample_rate} Hz')
+            return None
+        return frames
+
+    def _on_frames(self, msg: TactileFrames) -> None:
+        t0 = time.perf_counter()
+        now = time.monotonic()
+        with self._lock:
+            self._arrivals.append(now)
+            self._last_input = now
+            self._stale_published = False
+            self.counters['messages'] += 1
+            self._driver_counts = (int(msg.dropped_frames), int(msg.corrupt_frames))
+            first = int(msg.first_sequence)
+            count = int(msg.sample_count)
+            if self._expected_sequence is not None and first != self._expected_sequence:
+                if first > self._expected_sequence:
+                    self.counters['sequence_gaps'] += 1
+                    self.counters['lost_samples'] += first - self._expected_sequence
+                else:
+                    self.counters['sequence_resets'] += 1
+                self._pipeline.mark_gap()
+            frames = self._frames_array(msg)
+            if frames is None:
+                return
+            self._expected_sequence = first + count
+            if count == 0:
+                return
+            self.counters['samples'] += count
+            period = msg.sample_period if msg.sample_period > 0 else 1.0 / self._sample_rate
+            start_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            frame_id = msg.header.frame_id or self._frame_id
+            states = []
+            # one state per force instant inside the message (and one at its end), so the
+            # force is published at force_rate whatever the input batch size
+            step = self._pipeline.config.force_step
+            done = self._pipeline.samples_seen
+            ends = (np.flatnonzero((done + np.arange(1, count + 1)) % step == 0) + 1).tolist()
+            if not ends or ends[-1] != count:
+                ends.append(count)
+            begin = 0
+            for end in ends:
+                out = self._pipeline.process(frames[begin:end])
+                stamp_ns = start_ns + int(round((end - 1) * period * 1e9))
+                states.append(self._to_message(out, stamp_ns, frame_id))
+                if out.slip:
+                    self.counters['slip_messages'] += 1
+                begin = end
+            self._last_output = out
+            self._last_stamp = (stamp_ns, frame_id)
+            result = self._pipeline.tare_result
+            if result is not None and self._tare_future is not None and \
+                    not self._tare_future.done():
+                self._tare_future.set_result(result)
+        for state in states:
+            self._state_pub.publish(state)
+        self.counters['published'] += len(states)
+        self._processing.append(time.perf_counter() - t0)
+
+    def _to_message(self, out: PerceptionOutput, stamp_ns: int, frame_id: str,
+                    valid: bool | None = None) -> TactileState:
+        msg = TactileState()
+        msg.header.stamp.sec = int(stamp_ns // 10**9)
+        msg.header.stamp.nanosec = int(stamp_ns % 10**9)
+        msg.header.frame_id = frame_id
+        msg.sample_index = max(0, int(out.sample_index))
+        msg.force = float(out.force)
+        msg.force_valid = bool(out.force_valid)
+        msg.contact = [bool(c) for c in out.contact]
+        msg.slip = bool(out.slip)
+        msg.slip_active = bool(out.slip_active)
+        # fixed-size float64 arrays take float64 numpy arrays as they are (the generated
+        # setter checks only dtype and size, not every value as it does for a list)
+        msg.psd_max_db = np.asarray(out.psd_max_db, dtype=np.float64)
+        msg.finger_variance = np.asarray(out.finger_variance, dtype=np.float64)
+        msg.slip_updates = int(out.slip_updates)
+        msg.filtered = np.asarray(out.filtered, dtype=np.float64)
+        msg.tared = bool(out.tared)
+        msg.data_valid = bool(out.data_valid if valid is None else valid)
+        msg.input_gaps = int(self._gap_offset + out.input_gaps)
+        msg.channel_health = np.asarray(out.channel_health, dtype=np.uint8)
+        return msg
+
+    def _check_stale(self) -> None:
+        with self._lock:
+            age = time.monotonic() - self._last_input
+            if age < self._stale_timeout or self._last_output is None:
+                return
+            out = self._last_output
+            stamp_ns, frame_id = self._last_stamp
+            state = self._to_message(out, stamp_ns, frame_id, valid=False)
+            state.slip = False
+            state.force_valid = False
+            self.counters['stale_states'] += 1
+            self._stale_published = True
+        self._state_pub.publish(state)
+
+    # ------------------------------------------------------------------ services
+    async def _on_tare(self, request: Tare.Request, response: Tare.Response) -> Tare.Response:
+        """Start a tare; the response is sent when the quiet period is complete (the
+        coroutine waits on a future completed by the frames callback, so the executor keeps
+        processing frames meanwhile)."""
+        duration = float(request.duration)
+        with self._lock:
+            if duration == 0.0:
+                duration = float(self._pipeline.config.tare_duration)
+            ok, reason = self._pipeline.request_tare(duration)
+            if ok:
+                if self._tare_future is not None and not self._tare_future.done():
+                    self._tare_future.set_result(None)  # superseded
+                future = Future()
+                self._tare_future = future
+        if not ok:
+            response.success = False
+            response.message = reason
+            return response
+        limit = duration + 2.0 + 5.0 * self._stale_timeout
+
+        def expire() -> None:
+            timer.cancel()
+            if not future.done():
+                future.set_result(None)
+
+        timer = self.create_timer(limit, expire, callback_group=self._group)
+        result = await future
+        timer.cancel()
+        self.destroy_timer(timer)
+        if result is None:
+            response.success = False
+            response.message = (f'no complete quiet period within {limit:.1f} s (no input, '
+                                'or superseded by another request)')
+            return response
+        response.success = bool(result.success)
+        response.message = result.message
+        response.baseline = [float(v) for v in result.baseline] if result.success else []
+        return response
+
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response
+                  ) -> Trigger.Response:
+        with self._lock:
+            self._gap_offset += self._pipeline.gaps
+            self._pipeline.reset()
+            self._expected_sequence = None
+        response.success = True
+        response.message = 'pipeline restarted (filters, detector, means, baseline)'
+        return response
+
+    # ------------------------------------------------------------------ diagnostics
+    def _publish_diagnostics(self) -> None:
+        with self._lock:
+            now = time.monotonic()
+            recent = [t for t in self._arrivals if now - t <= 1.0]
+            rate = float(len(recent))
+            proc = np.asarray(self._processing) * 1e6
+            out = self._last_output
+            stale = now - self._last_input > self._stale_timeout
+            level, message = OK, 'ok'
+            if out is None:
+                level, message = WARN, 'no input yet'
+            elif stale:
+                level, message = ERROR, 'input stale'
+            elif not out.tared:
+                level, message = WARN, 'not tared yet'
+            elif self._pipeline.model is None:
+                level, message = WARN, 'no force model'
+            values = {
+                'input messages/s': f'{rate:.1f}',
+                'tared': str(bool(out.tared) if out else False),
+                'force model': 'loaded' if self._pipeline.model is not None else 'none',
+                'last reject reason': self._last_reject_reason,
+                'processing p50 [us]': f'{np.percentile(proc, 50):.0f}' if proc.size else '',
+                'processing p99 [us]': f'{np.percentile(proc, 99):.0f}' if proc.size else '',
+                'rows with invalid values': str(out.rejected_samples if out else 0),
+                'input gaps': str(self._gap_offset + (out.input_gaps if out else 0)),
+                'driver dropped frames': str(self._driver_counts[0]),
+                'driver corrupt frames': str(self._driver_counts[1]),
+            }
+            values.update({k.replace('_', ' '): str(v) for k, v in self.counters.items()})
+            status = diagnostic_status('perception: pipeline', level, message, values,
+                                       hardware_id='forte')
+            statuses = [status] + self._channel_statuses()
+        self._diag_pub.publish(diagnostic_array(self.get_clock().now().to_msg(), statuses))
+
+    def _channel_statuses(self) -> list[DiagnosticStatus]:
+        """One status per channel: ERROR if invalid values arrived since the previous
+        diagnostics, WARN if stuck or railed, with the counts (caller holds the lock)."""
+        reports, self._health_snapshot = channel_report(
+            self._pipeline.health, self._health_snapshot, self._sample_rate)
+        return [diagnostic_status(f'perception: channel {name}', bytes([level]), message,
+                                  values, hardware_id='forte')
+                for name, (level, message, values) in zip(CHANNEL_NAMES, reports, strict=True)]
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point ``perception_node``: spin until SIGINT/SIGTERM, then stop cleanly."""
+    return run_node(PerceptionNode, args)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
+
+
+__all__ = ['PerceptionNode', 'build_config', 'load_model', 'main']

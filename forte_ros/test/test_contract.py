@@ -1,0 +1,72 @@
+"""forte_ros.contract against docs/contracts.md, read as an outsider reads the document.
+
+The channel table (index, name, finger), the sampling rate and period and the value range
+with its 11-bit quantisation are parsed from the text, so a contract module that drifts from
+the document fails here, whichever side changed.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from forte_ros import contract
+
+CONTRACTS = (Path(__file__).resolve().parents[2] / 'docs' / 'contracts.md').read_text()
+
+
+def channel_rows() -> list[tuple[int, str, str]]:
+    """``(index, name, finger)`` of each row of the "Channels, fingers, units" table."""
+    rows = []
+    for line in CONTRACTS.splitlines():
+        match = re.match(r'\|\s*(\d+)\s*\|\s*`(\w+)`\s*\|\s*(left|right)\b', line)
+        if match:
+            rows.append((int(match.group(1)), match.group(2), match.group(3)))
+    return rows
+
+
+def test_channel_names_and_order_are_the_documented_ones():
+    rows = channel_rows()
+    assert [index for index, _, _ in rows] == list(range(6))
+    assert contract.CHANNEL_NAMES == tuple(name for _, name, _ in rows)
+    assert contract.N_CHANNELS == 6
+
+
+def test_finger_groups_are_the_documented_ones():
+    rows = channel_rows()
+    for finger_index, finger in enumerate(contract.FINGER_NAMES):
+        documented = tuple(index for index, _, name in rows if name == finger)
+        assert contract.FINGER_CHANNELS[finger_index] == documented
+    # every channel on exactly one finger, and distal / middle / root in that order
+    assert sorted(sum(contract.FINGER_CHANNELS, ())) == list(range(contract.N_CHANNELS))
+    for channels in contract.FINGER_CHANNELS:
+        names = [contract.CHANNEL_NAMES[channel] for channel in channels]
+        assert names[contract.DISTAL].endswith('_distal')
+        assert names[contract.MIDDLE].endswith('_middle')
+        assert names[contract.ROOT].endswith('_root')
+
+
+def test_sampling_is_the_documented_one():
+    rate, period = re.search(r'Sampling: (\d+) Hz, sample period ([\d.]+) s', CONTRACTS).groups()
+    assert contract.SAMPLE_RATE == float(rate) == 2000.0
+    assert contract.SAMPLE_PERIOD == float(period) == 1.0 / contract.SAMPLE_RATE
+
+
+def test_value_range_and_quantisation_are_the_documented_ones():
+    assert 'normalised to -1..1' in CONTRACTS
+    assert contract.VALUE_RANGE == (-1.0, 1.0)
+    step = re.search(r'11-bit quantisation \(step 2/(\d+)\)', CONTRACTS).group(1)
+    assert contract.QUANTUM == 2.0 / float(step) == 2.0 ** -10  # exact in binary
+    # the sensor board's counts (docs/firmware.md): one count is one quantum
+    assert contract.COUNTS_PER_FULL_SCALE * contract.QUANTUM == contract.VALUE_RANGE[1]
+
+
+def test_importing_the_contract_loads_no_ros():
+    """The pure cores import the contract; it must not drag rclpy in (checked in a fresh
+    interpreter, since this test process may have loaded rclpy for other tests)."""
+    import subprocess
+    import sys
+    code = ('import sys, forte_ros.contract, forte_ros.isolation, forte_ros.parameter_table; '
+            'loaded = [m for m in sys.modules if m.split(".")[0] in ("rclpy", "rcl_interfaces")]; '
+            'print(loaded); sys.exit(bool(loaded))')
+    result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stdout + result.stderr

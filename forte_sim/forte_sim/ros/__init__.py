@@ -1,0 +1,1 @@
+"""The simulator node (the ROS shell). Everything outside this folder is pure Python."""
