@@ -27,7 +27,9 @@ from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
 from forte_perception.slip.detector import SlipParams, slip_features_reference
 
 CHUNK = 20
-P = SlipParams()
+#: The masked-channel oracle below implements the paper mode's documented rule.
+P = SlipParams(mode='paper')
+PAPER = PipelineConfig(slip=P)
 M = 11
 DECISION_REACH = P.window + (P.history - 1) * P.hop + M - 1  # 476 raw samples
 PSD_REACH = P.window + M - 1  # 410
@@ -107,9 +109,9 @@ def test_one_bad_channel_every_100_ms_blinds_nothing_else(value, flag):
     x = clean.copy()
     bad = np.arange(7, 12000, 200)  # every 100 ms on left_distal
     x[bad, 0] = value
-    pipe = PerceptionPipeline(model=toy_model())
+    pipe = PerceptionPipeline(PAPER, model=toy_model())
     outs = run(pipe, x)
-    reference = run(PerceptionPipeline(model=toy_model()), clean)
+    reference = run(PerceptionPipeline(PAPER, model=toy_model()), clean)
     bad_chunks = set((bad // CHUNK).tolist())
     assert [not o.data_valid for o in outs] == [i in bad_chunks for i in range(len(outs))]
     assert outs[-1].input_gaps == 0 and outs[-1].rejected_samples == bad.size
@@ -140,7 +142,7 @@ def test_a_whole_finger_masked_leaves_the_other_finger_deciding():
     x = clean.copy()
     bad = np.arange(3, 12000, 200)
     x[bad, :3] = np.nan
-    outs = run(PerceptionPipeline(), x)
+    outs = run(PerceptionPipeline(PAPER), x)
     slip = check_against_oracle(outs, clean, bad, [0, 1, 2])
     assert slip.sum() > 30 and sum(o.slip for o in outs) >= 45
     assert sum(o.slip_active for o in outs) >= 0.95 * len(outs)
@@ -149,13 +151,13 @@ def test_a_whole_finger_masked_leaves_the_other_finger_deciding():
                for o in outs[30:])
     # without the NaNs the quiet left finger holds the paper's alpha gate shut (but for one
     # state where its noise happened to rise over a whole history)
-    assert sum(o.slip for o in run(PerceptionPipeline(), clean)) <= 2
+    assert sum(o.slip for o in run(PerceptionPipeline(PAPER), clean)) <= 2
 
 
 def test_every_channel_invalid_means_no_decision():
     x = band_bursts(4000)
     x[1000:1020] = np.nan
-    outs = run(PerceptionPipeline(), x)
+    outs = run(PerceptionPipeline(PAPER), x)
     assert not outs[50].data_valid and outs[51].data_valid
     # decisions need N + (V-1) hop + M - 1 raw samples after the last invalid one
     last_bad = 1019
@@ -170,7 +172,7 @@ def test_every_channel_invalid_means_no_decision():
 def test_a_single_invalid_value_is_forgotten_after_its_windows():
     x = band_bursts(30000, onsets=())
     x[5000, 4] = np.inf
-    pipe = PerceptionPipeline(model=toy_model())
+    pipe = PerceptionPipeline(PAPER, model=toy_model())
     outs = run(pipe, x)
     assert [i for i, o in enumerate(outs) if not o.data_valid] == [250]
     force_reach = 20000 + M - 1
@@ -188,11 +190,11 @@ def test_a_single_invalid_value_is_forgotten_after_its_windows():
 def test_contact_ignores_a_masked_channel():
     x = np.full((3000, 6), 0.1)
     x[2000:2100, 1] = 5.0  # out of range: replaced, not a contact
-    outs = run(PerceptionPipeline(), x)
+    outs = run(PerceptionPipeline(PAPER), x)
     assert not any(o.contact.any() for o in outs)
     y = x.copy()
     y[2000:2100, 1] = 0.5  # in range: the same pulse is a (paper) contact
-    assert any(o.contact[0] for o in run(PerceptionPipeline(), y))
+    assert any(o.contact[0] for o in run(PerceptionPipeline(PAPER), y))
 
 
 def test_tare_uses_the_valid_samples_of_each_channel():
@@ -247,8 +249,8 @@ def test_all_valid_input_is_bit_for_bit_the_unmasked_pipeline():
     in-range input (the unmasked algorithm: compared with the batch functions in
     test_pipeline.py::test_online_equals_offline_batch)."""
     x = band_bursts(12000)
-    a = run(PerceptionPipeline(model=toy_model()), x)
-    b = run(PerceptionPipeline(PipelineConfig(input_limit=1e6), model=toy_model()), x, 20)
+    a = run(PerceptionPipeline(PAPER, model=toy_model()), x)
+    b = run(PerceptionPipeline(PipelineConfig(input_limit=1e6, slip=P), model=toy_model()), x, 20)
     for o, r in zip(a, b, strict=True):
         for name in ('psd_max_db', 'finger_variance', 'filtered', 'contact', 'channel_health'):
             np.testing.assert_array_equal(getattr(o, name), getattr(r, name))
@@ -261,8 +263,8 @@ def test_masked_outputs_do_not_depend_on_the_chunking():
     x = band_bursts(8000)
     x[np.arange(5, 8000, 333), 2] = np.nan
     x[4000, 5] = 3.0
-    a = PerceptionPipeline()
-    b = PerceptionPipeline()
+    a = PerceptionPipeline(PAPER)
+    b = PerceptionPipeline(PAPER)
     outs_a = run(a, x, 20)
     sizes = [7, 13, 40, 200]  # small chunks and one above the 64-row scan threshold
     i, k, outs_b = 0, 0, []

@@ -13,6 +13,7 @@ from forte_perception.evaluation.recordings import (
     trial_metrics,
 )
 from forte_perception.force import ForceModel
+from forte_perception.slip.detector import SlipParams
 from forte_perception.tools import evaluate_slip as evaluate_tool
 from forte_perception.tools import train_force
 
@@ -99,19 +100,21 @@ def test_evaluate_slip_on_labelled_trials(tmp_path, capsys):
     frames = np.concatenate([slipping, quiet]) + 0.1
     trial = np.repeat([0, 1], n)
     rec = LabelledRecording(frames, FS, np.array([3000, 6000]), trial)
-    result = evaluate_slip([rec])
+    paper = SlipParams(mode='paper')
+    result = evaluate_slip([rec], paper)
     assert result['trials']['tp'] == 1 and result['trials']['tn'] == 1
     assert result['trials']['accuracy'] == 1.0 and result['missed_onsets'] == 0
     assert len(result['latencies_s']) == 2 and max(result['latencies_s']) < 0.1
     assert result['false_alarms'] == 0
     # a label without a slip in the signal is a miss (FN); a burst without label an FP
     wrong = LabelledRecording(frames, FS, np.array([n + 3000]), trial)
-    result = evaluate_slip([wrong])
+    result = evaluate_slip([wrong], paper)
     assert result['trials']['fp'] == 1 and result['trials']['fn'] == 1
     assert result['missed_onsets'] == 1 and result['false_alarms'] >= 2
     path = tmp_path / 'rec.npz'
     save_labelled(path, rec)
-    assert evaluate_tool.main([str(path), '--report', str(tmp_path / 'r.json')]) == 0
+    assert evaluate_tool.main([str(path), '--mode', 'paper', '--report',
+                               str(tmp_path / 'r.json')]) == 0
     assert 'precision 1.000' in capsys.readouterr().out
     assert evaluate_tool.main([str(path), '--hop', '0']) == 2
 

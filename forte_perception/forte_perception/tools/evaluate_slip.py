@@ -4,11 +4,12 @@ Example::
 
     forte_evaluate_slip trial1.npz trial2.npz --max-latency 0.5 --report slip.json
 
-Recording format: see :mod:`forte_perception.evaluation.recordings` (``frames``, ``fs``, ``onsets``,
-optional ``trial``, ``filtered`` and ``mask`` of the rows where flags count). Prints the
-trial-wise TP/FP/FN/TN, accuracy, precision, recall and F1 (as in the paper), the
-onset-to-flag latency distribution, missed onsets and false alarms. Every slip detector
-parameter can be overridden.
+Recording format: see :mod:`forte_perception.evaluation.recordings` (``frames``, ``fs``,
+``onsets``, optional ``trial``, ``filtered`` and ``mask`` of the rows where flags count).
+Prints the trial-wise TP/FP/FN/TN, accuracy, precision, recall and F1 (as in the paper), the
+onset-to-flag latency distribution, missed onsets and false alarms. The detector mode
+(``--mode``, default the perception node's) and every slip detector parameter can be
+overridden.
 """
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ import numpy as np
 
 from forte_perception.evaluation.recordings import evaluate_slip, load_labelled
 from forte_perception.slip.detector import SlipParams
+from forte_perception.slip.params import MODES
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -41,11 +43,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--delta', type=float, default=d.delta)
     parser.add_argument('--alpha', type=float, default=d.alpha)
     parser.add_argument('--threshold', type=float, default=d.threshold, help='T')
+    parser.add_argument('--mode', choices=MODES, default=d.mode,
+                        help=f'slip detector mode (default {d.mode!r}, as the perception node)')
     parser.add_argument('--report', default=None, help='write the results as JSON')
     args = parser.parse_args(argv)
     params = SlipParams(window=args.window, hop=args.hop, f_min=args.f_min, f_max=args.f_max,
                         history=args.history, delta=args.delta, alpha=args.alpha,
-                        threshold=args.threshold)
+                        threshold=args.threshold, mode=args.mode)
     try:
         recordings = [load_labelled(p) for p in args.recordings]
         for rec in recordings:

@@ -29,7 +29,7 @@ def test_paper_mode_is_the_paper_detector_on_the_median_filtered_frames():
     (inp,) = prepare([scene])
     np.testing.assert_array_equal(inp.filtered, running_median(scene.frames, 11))
     det = paper_mode(inp)
-    ref = slip_features(running_median(scene.frames, 11), 2000.0, SlipParams())
+    ref = slip_features(running_median(scene.frames, 11), 2000.0, SlipParams(mode='paper'))
     np.testing.assert_array_equal(det.sample_index, ref.sample_index)
     np.testing.assert_array_equal(det.slip, ref.slip)
     assert det.hop == 4 and MODES['paper'] is paper_mode

@@ -17,6 +17,8 @@ from forte_perception.slip.detector import (
 )
 
 TOL_DB = 1e-6
+#: This module tests the paper's algorithm (the derivation in forte_perception.slip.detector).
+PAPER = SlipParams(mode='paper')
 
 
 def chunked(frames, sizes, params=None):
@@ -38,7 +40,7 @@ def assert_same(a: SlipFeatures, b: SlipFeatures):
 
 
 def test_defaults_are_the_papers():
-    p = SlipParams()
+    p = PAPER
     assert (p.window, p.hop, p.f_min, p.f_max, p.history) == (400, 4, 10.0, 50.0, 15)
     assert (p.delta, p.alpha, p.threshold, p.eps) == (0.1, 0.6, 2.0, 1e-12)
 
@@ -48,7 +50,7 @@ def test_sine_psd_equals_scipy_welch():
     x = np.zeros((4000, 6))
     for c, f in enumerate((12.0, 20.0, 25.0, 33.3, 45.0, 80.0)):
         x[:, c] = 0.1 * (c + 1) * np.sin(2 * np.pi * f * t + c) + 0.01 * c
-    res = slip_features(x)
+    res = slip_features(x, params=PAPER)
     for u in (0, 17, 500, len(res) - 1):
         end = res.sample_index[u]
         f, p = signal.welch(x[end - 399:end + 1], fs=FS, window='hann', nperseg=400,
@@ -61,11 +63,11 @@ def test_sine_psd_equals_scipy_welch():
 
 
 def test_update_indices():
-    res = slip_features(np.zeros((1000, 6)))
+    res = slip_features(np.zeros((1000, 6)), params=PAPER)
     np.testing.assert_array_equal(res.sample_index, np.arange(399, 1000, 4))
-    assert len(slip_features(np.zeros((399, 6)))) == 0
-    assert len(slip_features(np.zeros((400, 6)))) == 1
-    res1 = slip_features(np.zeros((1000, 6)), params=SlipParams(hop=1))
+    assert len(slip_features(np.zeros((399, 6)), params=PAPER)) == 0
+    assert len(slip_features(np.zeros((400, 6)), params=PAPER)) == 1
+    res1 = slip_features(np.zeros((1000, 6)), params=SlipParams(mode='paper', hop=1))
     np.testing.assert_array_equal(res1.sample_index, np.arange(399, 1000))
 
 
@@ -76,8 +78,8 @@ def test_update_indices():
 ])
 def test_fast_equals_reference(make):
     x = make()
-    fast = slip_features(x)
-    ref = slip_features_reference(x, vectorized=True)
+    fast = slip_features(x, params=PAPER)
+    ref = slip_features_reference(x, params=PAPER, vectorized=True)
     np.testing.assert_array_equal(fast.sample_index, ref.sample_index)
     assert np.abs(fast.psd_max_db - ref.psd_max_db).max() <= TOL_DB
     np.testing.assert_array_equal(fast.slip, ref.slip)
@@ -88,7 +90,7 @@ def test_fast_equals_reference(make):
 def test_slip_bursts_are_detected_and_quiet_is_not():
     onsets = (6000, 16000)
     x = slip_bursts(26000, seed=4, onsets=onsets)
-    res = slip_features(x)
+    res = slip_features(x, params=PAPER)
     flagged = res.sample_index[res.slip]
     assert flagged.size > 0
     for onset in onsets:
@@ -100,10 +102,10 @@ def test_slip_bursts_are_detected_and_quiet_is_not():
 
 
 @pytest.mark.parametrize('params', [
-    SlipParams(),
-    SlipParams(hop=1),
-    SlipParams(hop=7, window=256, f_min=0.0, f_max=1000.0, history=5),
-    SlipParams(hop=3, window=401, f_min=4.0, f_max=60.0, resync_interval=7),
+    PAPER,
+    SlipParams(mode='paper', hop=1),
+    SlipParams(mode='paper', hop=7, window=256, f_min=0.0, f_max=1000.0, history=5),
+    SlipParams(mode='paper', hop=3, window=401, f_min=4.0, f_max=60.0, resync_interval=7),
 ])
 def test_streaming_equals_batch_bit_for_bit(params):
     x = slip_bursts(9000, seed=5, onsets=(2000, 6000)) + random_walk(9000, seed=6)
@@ -116,8 +118,9 @@ def test_streaming_equals_batch_bit_for_bit(params):
 
 def test_other_params_match_reference():
     x = slip_bursts(6000, seed=8, onsets=(2500,)) + random_walk(6000, seed=9)
-    for params in (SlipParams(hop=1), SlipParams(hop=5, window=256, f_min=0.0, f_max=1000.0),
-                   SlipParams(window=401, f_min=4.0, f_max=60.0, hop=3)):
+    for params in (SlipParams(mode='paper', hop=1),
+                   SlipParams(mode='paper', hop=5, window=256, f_min=0.0, f_max=1000.0),
+                   SlipParams(mode='paper', window=401, f_min=4.0, f_max=60.0, hop=3)):
         fast = slip_features(x, params=params)
         ref = slip_features_reference(x, params=params, vectorized=True)
         assert np.abs(fast.psd_max_db - ref.psd_max_db).max() <= TOL_DB
@@ -126,13 +129,13 @@ def test_other_params_match_reference():
 
 def test_exact_silence_is_minus_120_db():
     for level in (0.0, 0.123456789, 2048.0, -1.0):
-        res = slip_features(np.full((3000, 6), level))
+        res = slip_features(np.full((3000, 6), level), params=PAPER)
         assert np.all(res.psd_max_db == -120.0), level
         assert not res.slip.any()
     # silence after activity: the running sums hold only rounding residue
     x = np.concatenate([random_walk(3000, seed=10), np.full((3000, 6), 0.5)])
-    res = slip_features(x)
-    ref = slip_features_reference(x, vectorized=True)
+    res = slip_features(x, params=PAPER)
+    ref = slip_features_reference(x, params=PAPER, vectorized=True)
     tail = res.sample_index >= 3000 + 400
     assert np.all(ref.psd_max_db[tail] == -120.0)
     assert np.abs(res.psd_max_db[tail] + 120.0).max() <= TOL_DB
@@ -148,8 +151,8 @@ def test_hard_cases_dc_offset_steps_saturation_impulses():
     sat = np.clip(random_walk(n, seed=12, scale=0.05), -1.0, 1.0)  # long saturated runs
     small = 2048.0 + 1e-4 * np.sin(2 * np.pi * 30 * np.arange(n) / FS)[:, None] * np.ones(6)
     for x in (counts, sat, small):
-        fast = slip_features(x)
-        ref = slip_features_reference(x, vectorized=True)
+        fast = slip_features(x, params=PAPER)
+        ref = slip_features_reference(x, params=PAPER, vectorized=True)
         assert np.abs(fast.psd_max_db - ref.psd_max_db).max() <= TOL_DB
         np.testing.assert_array_equal(fast.slip, ref.slip)
 
@@ -161,7 +164,7 @@ def test_one_hour_is_stable():
     rng = np.random.default_rng(13)
     x = 2048.0 + np.cumsum(rng.normal(size=(n, 6)), axis=0) * 0.01
     x += np.sin(2 * np.pi * 20 * np.arange(n) / FS)[:, None] * np.linspace(0.001, 5, n)[:, None]
-    det = SlipDetector(FS)
+    det = SlipDetector(FS, PAPER)
     params = det.params
     worst = 0.0
     check = np.linspace(0, (n - 400) // 4, 150).astype(int)  # update numbers to verify
@@ -181,7 +184,7 @@ def test_one_hour_is_stable():
 
 def test_nan_and_inf_are_rejected_and_state_is_kept():
     x = slip_bursts(5000, seed=14, onsets=(2000,))
-    det = SlipDetector(FS)
+    det = SlipDetector(FS, PAPER)
     a = det.update(x[:2500])
     for bad in (np.nan, np.inf, -np.inf):
         chunk = x[2500:2600].copy()
@@ -190,23 +193,23 @@ def test_nan_and_inf_are_rejected_and_state_is_kept():
             det.update(chunk)
     assert det.samples_seen == 2500
     b = det.update(x[2500:])
-    assert_same(SlipFeatures.concatenate([a, b]), slip_features(x))
+    assert_same(SlipFeatures.concatenate([a, b]), slip_features(x, params=PAPER))
     with pytest.raises(NonFiniteInputError):
         slip_features(np.full((500, 6), np.nan))
 
 
 def test_reset_restarts_indices():
     x = random_walk(3000, seed=15)
-    det = SlipDetector(FS)
+    det = SlipDetector(FS, PAPER)
     det.update(x)
     det.reset()
-    assert_same(det.update(x), slip_features(x))
+    assert_same(det.update(x), slip_features(x, params=PAPER))
 
 
 def test_guarded_decisions_use_the_reference():
     """With guard bands covering everything, every decision is re-made from Welch PSDs."""
     x = slip_bursts(5000, seed=16, onsets=(2000,))
-    params = SlipParams(guard_db=1e9, guard_variance=1e9)
+    params = SlipParams(mode='paper', guard_db=1e9, guard_variance=1e9)
     det = SlipDetector(FS, params)
     res = det.update(x)
     ref = slip_features_reference(x, params=params)
@@ -217,7 +220,7 @@ def test_guarded_decisions_use_the_reference():
 
 
 def test_decision_rule_known_answers():
-    params = SlipParams()
+    params = PAPER
     ramp = np.tile(np.arange(15.0)[:, None] * 0.5, (1, 6))  # +0.5 dB per update
     cv, fv, slip, _ = decide_slip(ramp[None], params)
     expected = np.var(np.arange(15.0) * 0.5)
@@ -239,8 +242,8 @@ def test_parameter_validation():
                 dict(f_min=60.0, f_max=50.0), dict(f_min=11.0, f_max=14.0),
                 dict(eps=0.0), dict(resync_interval=0)):
         with pytest.raises(ValueError):
-            SlipDetector(FS, SlipParams(**bad))
+            SlipDetector(FS, SlipParams(mode='paper', **bad))
     with pytest.raises(ValueError):
         SlipDetector(0.0)
     with pytest.raises(ValueError):
-        slip_features(np.zeros((500, 5)))
+        slip_features(np.zeros((500, 5)), params=PAPER)

@@ -8,6 +8,7 @@ from scipy import signal
 
 from forte_perception.evaluation.scenes import make_scene
 from forte_perception.median import running_median
+from forte_perception.pipeline import PipelineConfig
 from forte_perception.slip.detector import (
     SlipDetector,
     SlipFeatures,
@@ -15,10 +16,11 @@ from forte_perception.slip.detector import (
     slip_features,
     slip_features_reference,
 )
+from forte_perception.slip.params import RECOMMENDED_MODE
 
 FS = 2000.0
 LSB = 2.0 / 2048.0
-PAPER = SlipParams()
+PAPER = SlipParams(mode='paper')
 ROBUST = SlipParams(mode='robust')
 
 
@@ -127,7 +129,13 @@ def test_paper_mode_ignores_the_robust_parameters():
     a, b = slip_features(x, FS, PAPER), slip_features(x, FS, odd)
     for name in ('psd_max_db', 'channel_variance', 'finger_variance', 'slip'):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
-    assert SlipParams().mode == 'paper'
+
+
+def test_the_default_mode_is_the_recommended_one():
+    """One default for one choice: a bare SlipParams (hence a bare PipelineConfig) runs the
+    detector the perception node and the closed loop run."""
+    assert SlipParams().mode == RECOMMENDED_MODE == 'robust'
+    assert PipelineConfig().slip.mode == RECOMMENDED_MODE
 
 
 @pytest.mark.parametrize('bad', [dict(mode='fast'), dict(floor_factor=0.0),
