@@ -188,3 +188,103 @@ def test_the_checks_see_what_they_judge():
     assert len(sources()) > 50
     assert any(ROS_IMPORTS.match(name) for name in ('rclpy', 'diagnostic_msgs', 'std_srvs'))
     assert ros_imports(ROOT / 'forte_ros' / 'forte_ros' / 'qos.py') == ['rclpy.qos']
+
+
+#: The sensor contract's names (forte_ros.contract) and the aliases they used to have.
+CONTRACT_NAMES = {'CHANNEL_NAMES', 'N_CHANNELS', 'CHANNEL_COUNT', 'FINGERS', 'FINGER_CHANNELS',
+                  'FINGER_NAMES', 'SAMPLE_RATE', 'SAMPLE_PERIOD', 'FS', 'QUANTUM', 'LSB',
+                  'COUNTS_PER_FULL_SCALE', 'VALUE_RANGE'}
+CONTRACT_MODULE = ROOT / 'forte_ros' / 'forte_ros' / 'contract.py'
+#: A name that holds a sample rate (an assignment or a default argument).
+RATE_NAME = re.compile(r'(^|_)(fs|sample_rate|rate_hz)$', re.IGNORECASE)
+
+
+def contract_redefinitions(path: Path) -> list[str]:
+    """Places in ``path`` that declare a fact of the sensor contract again.
+
+    An assignment to a contract name; a channel name written as a string; a finger group
+    written as an index tuple; 2000 (the sample rate) assigned to, or the default of, a
+    rate-like name. Docstrings are text, not declarations, and are not looked at.
+    """
+    from forte_ros.contract import CHANNEL_NAMES, FINGER_CHANNELS, SAMPLE_RATE
+
+    tree = ast.parse(path.read_text(), filename=str(path))
+    docstrings = {id(node.body[0].value) for node in ast.walk(tree)
+                  if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef,
+                                       ast.AsyncFunctionDef))
+                  and node.body and isinstance(node.body[0], ast.Expr)}
+    # ``A, B, C = 0, 1, 2`` unpacks three constants; it writes no index tuple
+    unpacked = {id(node.value) for node in ast.walk(tree)
+                if isinstance(node, ast.Assign) and isinstance(node.targets[0], ast.Tuple)}
+    found = []
+
+    def is_rate(value: ast.AST | None) -> bool:
+        return isinstance(value, ast.Constant) and not isinstance(value.value, bool) \
+            and value.value == SAMPLE_RATE
+
+    for node in ast.walk(tree):
+        where = f'{path.relative_to(ROOT)}:{getattr(node, "lineno", "?")}'
+        if isinstance(node, (ast.Assign, ast.AnnAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            names = [target.id for target in targets if isinstance(target, ast.Name)]
+            found += [f'{where} assigns {name}' for name in names if name in CONTRACT_NAMES]
+            found += [f'{where} assigns the sample rate to {name}' for name in names
+                      if RATE_NAME.search(name) and is_rate(node.value)]
+        elif isinstance(node, ast.arguments):
+            positional = node.posonlyargs + node.args
+            pairs = list(zip(positional[len(positional) - len(node.defaults):], node.defaults))
+            pairs += [(arg, default) for arg, default in zip(node.kwonlyargs, node.kw_defaults)]
+            found += [f'{where} defaults {arg.arg} to the sample rate' for arg, default in pairs
+                      if RATE_NAME.search(arg.arg) and is_rate(default)]
+        elif isinstance(node, ast.Constant) and id(node) not in docstrings \
+                and node.value in CHANNEL_NAMES:
+            found.append(f'{where} writes the channel name {node.value!r}')
+        elif isinstance(node, ast.Tuple) and id(node) not in unpacked \
+                and all(isinstance(e, ast.Constant) for e in node.elts) \
+                and tuple(e.value for e in node.elts) in FINGER_CHANNELS:
+            found.append(f'{where} writes a finger group {tuple(e.value for e in node.elts)}')
+    return found
+
+
+def test_the_contract_is_declared_once():
+    """Channel names, finger groups, the sample rate and the value scale are declared in
+    forte_ros.contract only; runtime code, tools and benchmarks import them (tests may
+    write the documented values themselves, as an outsider would)."""
+    wrong = [place for path in tracked('*.py')
+             if path.suffix == '.py' and path != CONTRACT_MODULE
+             and not is_test_or_generated(path)
+             for place in contract_redefinitions(path)]
+    assert not wrong, ('declare these with forte_ros.contract instead:\n' + '\n'.join(wrong))
+
+
+def test_the_redefinition_check_sees_a_redefinition():
+    """The scanner finds each kind of redefinition (a check that finds nothing passes all)."""
+    sample = ROOT / 'tools' / 'test' / '_redefinition_sample.py'
+    sample.write_text('"""left_distal in a docstring is text."""\n'
+                      "CHANNEL_NAMES = ('left_distal',)\n"
+                      'GROUP = (3, 4, 5)\n'
+                      'LOW, MIDDLE, HIGH = 0, 1, 2\n'
+                      'fs = 2000.0\n'
+                      'def f(x, sample_rate=2000):\n'
+                      '    return x\n')
+    try:
+        found = contract_redefinitions(sample)
+    finally:
+        sample.unlink()
+    assert len(found) == 5, found
+    assert any('assigns CHANNEL_NAMES' in place for place in found)
+    assert any("channel name 'left_distal'" in place for place in found)
+    assert any('finger group (3, 4, 5)' in place for place in found)
+    assert any('assigns the sample rate to fs' in place for place in found)
+    assert any('defaults sample_rate' in place for place in found)
+
+
+def test_no_module_is_loaded_by_file_path():
+    """Modules are imported by name from installed packages (colcon's and pip's view), never
+    executed from a file path: such an edge is invisible to the import-direction test."""
+    loaders = re.compile(r'\b(spec_from_file_location|SourceFileLoader|run_path|load_source)\b')
+    wrong = [f'{path.relative_to(ROOT)}:{number}'
+             for path in tracked('*.py') if path != Path(__file__)
+             for number, line in enumerate(path.read_text().splitlines(), 1)
+             if loaders.search(line)]
+    assert not wrong, 'import these by module name instead:\n' + '\n'.join(wrong)
