@@ -156,8 +156,9 @@ def test_sourced_ros_with_python_312_is_used_and_not_reinstalled(tmp_path):
     reinstalled = sorted(p.name for p in venv_site.iterdir()
                          if p.name.startswith(('rclpy', 'ros_', 'rosidl', 'rmw')))
     assert reinstalled == [], reinstalled
-    probe = ('import rclpy, forte_msgs.msg, forte_driver, forte_perception, forte_control, '
-             'forte_bringup, sys; print(sys.version_info[:2]); print(rclpy.__file__); '
+    probe = ('import rclpy, forte_msgs.msg, forte_ros, forte_driver, forte_sim, forte_perception, '
+             'forte_control, forte_bringup, sys; print(sys.version_info[:2]); '
+             'print(rclpy.__file__); '
              'print(forte_msgs.__file__)')
     check = subprocess.run(
         ['bash', '-c', f'source {ros} && set +u && source install/setup.bash && '
