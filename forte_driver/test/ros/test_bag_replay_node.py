@@ -2,9 +2,7 @@
 
 The replay node runs in-process with a subscriber node on a real executor; bags are real
 files written by the project's writer (rosbags) or directly by ``mcap_ros2.writer``.
-It tests forte_driver's node but lives in forte_bringup because it writes bags with
-``forte_driver.replay.bags``: forte_driver cannot test-depend on forte_bringup (a dependency
-cycle that colcon refuses to order).
+Bags are written with ``forte_driver.replay.bags``, the same package's writer.
 """
 from __future__ import annotations
 

@@ -58,12 +58,12 @@ class SlipParams:
     guard_variance : float
         Half-width of the band around ``alpha`` and ``T`` [dB^2], same purpose.
     mode : str
-        ``'paper'`` (default): the paper's algorithm bit for bit; the fields below are
-        ignored. ``'robust'``: the issue-14 mode (:mod:`forte_perception.slip.robust`), which
-        replaces ``eps`` by a quantisation floor, adds a per-finger rule and vetoes level
-        shifts.
+        ``'robust'`` (default, :data:`RECOMMENDED_MODE`): the issue-14 mode
+        (:mod:`forte_perception.slip.robust`), which replaces ``eps`` by a quantisation
+        floor, adds a per-finger rule and vetoes level shifts. ``'paper'``: the paper's
+        algorithm bit for bit; the fields below are then ignored.
     quantum : float
-        Robust mode: the ADC step q [normalised units] (2/2048: 11 bits over a span of 2).
+        Robust mode: the ADC step q [normalised units] (``forte_ros.contract.QUANTUM``).
     floor_factor : float
         Robust mode: PSD floor = ``floor_factor * q**2 / (6 fs)`` [1] (4).
     single_threshold : float
