@@ -1,63 +1,54 @@
-"""The robust slip detector mode (issue 14): what it changes in the paper's detector, and why.
+"""The robust slip detector mode: what it changes in the paper's detector, and why.
 
-``SlipParams(mode='robust')``; the paper mode (the default) is untouched. Each change answers
-a scene family of the issue-14 slip evaluation set (docs/perception.md, "Slip evaluation
-set"), its parameters tuned on the *tune* part only; the numbers quoted are tune / held-out.
+``SlipParams()`` builds this mode: ``mode='robust'`` is
+:data:`~forte_perception.slip.params.RECOMMENDED_MODE`, the default of the node, the closed
+loop and the tools; ``mode='paper'`` is the paper's algorithm bit for bit. Each change below
+answers a way the paper's rule fails on the slip evaluation set; which parameter values were
+tried, on which part of the set, and what each change gains and costs is in
+docs/perception.md, "Robust mode".
 
-1. **A PSD floor from quantisation instead of eps = 1e-12.** The sensor is an 11-bit ADC,
-   q = 2/2048 in normalised units. Below about 1 LSB of noise the median-filtered signal is
-   a staircase: most windows are constant (PSD 0, feature ``10 log10(eps)`` = -120 dB) and
-   a single 1-LSB step lifts the band maximum to about -79 dB, a monotone rise of 40 dB in
-   a few updates, i.e. a moving variance far above T. The paper mode flags 49.4 / 46.3
-   times a minute on ``quiet_sub_lsb`` (0.0 at >= 1 LSB). Uniform quantisation noise has
-   variance q^2/12, spread one-sided over fs/2: density ``q^2 / (6 fs)`` = 7.9e-11 / Hz at
-   2 kHz, the smallest PSD a real signal change of the order of 1 LSB can be told from. A
-   floor of ``floor_factor`` times that density replaces eps (``P + floor`` before the
-   logarithm): a lone 1-LSB step now moves the feature by a few dB instead of 40.
-   ``floor_factor`` = 4 (3.2e-10 / Hz) is the smallest of 1, 2, 4, 8 with no false flag on
-   the tune part's quiet holds (factor 1: 1.15 per minute, 2: 0.38, 4 and 8: 0); 8 costs
-   recall of 3-10 LSB stick-slip (0.56 -> 0.52). A 3-LSB sinusoid in the band has a PSD
-   peak of 0.067 A^2 = 5.7e-7 / Hz (A = 3 q), 1800 times the floor, so stick-slip from
-   3 LSB on is not masked. Held-out: 46.3 -> 0.0 false flags per minute.
+1. **A PSD floor from quantisation instead of eps.** The sensor is an 11-bit ADC, q = 2/2048
+   in normalised units (:data:`forte_ros.contract.QUANTUM`). Below about 1 LSB of noise the
+   median-filtered signal is a staircase: most windows are constant (PSD 0, feature
+   ``10 log10(eps)`` = -120 dB) and a single 1-LSB step lifts the band maximum to about
+   -79 dB, a monotone rise of 40 dB in a few updates, i.e. a moving variance far above T.
+   Uniform quantisation noise has variance q^2/12, spread one-sided over fs/2: density
+   ``q^2 / (6 fs)`` = 7.9e-11 / Hz at 2 kHz, the smallest PSD a real signal change of the
+   order of 1 LSB can be told from. A floor of ``floor_factor`` times that density replaces
+   eps (``P + floor`` before the logarithm): a lone 1-LSB step now moves the feature by a few
+   dB instead of 40. It does not mask stick-slip: a sinusoid of amplitude A at a bin has the
+   Hann PSD peak ``P = A^2 N / (3 fs)``, for A = 3 q 5.7e-7 / Hz, 1800 times the floor at the
+   default ``floor_factor`` = 4 (3.2e-10 / Hz).
 
-2. **A veto on low-frequency level shifts.** Closing steps, ramps and 0.5-5 Hz sway leak
-   into the 10-50 Hz bins through the Hann window's main lobe and sidelobes; the leakage
-   grows monotonically while the shift enters the window, which is exactly the paper's
-   rising-power signature: 50 / 46 false events on ``closing_step`` (every scene), 15 / 17
-   on ``ramp``, 30 / 15 on ``low_frequency``. Stick-slip, in contrast, moves the level
-   little compared with its vibration. At a flagged update the detector compares, per
-   channel, the level shift ``|mean(x[t-L+1..t]) - mean(x[t-S-L+1..t-S])|`` (running mean
-   of L = ``veto_level`` = 200 samples, 100 ms, zeros at 10, 20, ... Hz so the band's
-   vibration hardly moves it; span S = ``veto_span`` = 400 samples, the window length)
-   with the peak-to-peak amplitude ``2 A`` of a sinusoid whose Hann PSD peak equals the
-   band maximum, ``A = sqrt(3 fs P / N)`` (P = A^2 N / (3 fs) for a sinusoid at a bin).
-   The flag is vetoed when on every finger the largest shift exceeds ``veto_ratio`` times
-   the largest ``2 A``. ``veto_ratio`` = 0.33 (tune part, swept 0.25-4): 2 leaves every
-   closing step flagged, 1 leaves 3 closing and 2 sway false events and simulator
-   precision 0.68, 0.5 removes closing and ramps (simulator precision 0.83), 0.33-0.35
-   reach simulator precision 1.00 (0.37: 0.92, a cliff, hence 0.33 rather than 0.35),
-   0.25 loses 10-30 LSB stick-slip recall (0.85). Its price: strong stick-slip that also
-   shifts the level is vetoed at first (30-100 LSB recall 1.00 -> 0.92 / 0.94, p90 42 ->
-   64 / 47 -> 55 ms). Computed only at flagged updates (flags are rare), from the samples
-   kept for them.
+2. **A veto on low-frequency level shifts.** Closing steps, ramps and 0.5-5 Hz sway leak into
+   the 10-50 Hz bins through the Hann window's main lobe and sidelobes; the leakage grows
+   monotonically while the shift enters the window, which is exactly the paper's rising-power
+   signature. Stick-slip, in contrast, moves the level little compared with its vibration. At
+   a flagged update the detector compares, per channel, the level shift
+   ``|mean(x[t-L+1..t]) - mean(x[t-S-L+1..t-S])|`` (running mean of L = ``veto_level`` = 200
+   samples, 100 ms, whose zeros at 10, 20, ... Hz keep the band's vibration from moving it;
+   span S = ``veto_span`` = 400 samples, the window length) with the peak-to-peak amplitude
+   ``2 A`` of a sinusoid whose Hann PSD peak equals the band maximum P, inverting the formula
+   above: ``A = sqrt(3 fs P / N)``. The flag is vetoed when on every finger the largest shift
+   exceeds ``veto_ratio`` times the largest ``2 A``. Its price: strong stick-slip that also
+   shifts the level is vetoed at first. Computed only at flagged updates (flags are rare),
+   from the samples kept for them.
 
 3. **One finger may flag alone.** The paper's alpha gate needs both finger groups above
-   0.6 dB^2, so stick-slip under the leading finger only is missed (``leading_finger``
-   recall 0.04 / 0.10). A finger's group average may now flag by itself when it exceeds
-   ``single_threshold`` = 3 dB^2 (1.5 T) with at least ``single_min_rising`` = 2 of its
-   three channels rising monotonically with a moving variance of at least alpha each: one
-   strongly rising channel plus a noise channel drifting up (the PSD of 99 %-overlapping
-   windows rises monotonically for 15 updates by chance) cannot make it. On the tune part
-   3 dB^2 finds 0.65 of the leading-finger events, 4 dB^2 0.58, 6 dB^2 0.58, with no false
-   flag at any of them; 3 channels instead of 2: 0.60.
+   alpha, so stick-slip under the leading finger only is missed. A finger's group average may
+   now flag by itself when it exceeds ``single_threshold`` (3 dB^2 = 1.5 T) with at least
+   ``single_min_rising`` (2) of its three channels rising monotonically with a moving variance
+   of at least alpha each: one strongly rising channel plus a noise channel drifting up (the
+   PSD of 99 %-overlapping windows rises monotonically for 15 updates by chance) cannot make
+   it.
 
-What it does not do: ignoring flags for 0.35 s after a commanded servo change (the scratch
-study's finding 2: closing false events 50 / 46 -> 0 / 0) needs the servo command, which the
-detector does not see; it belongs to the controller (which knows when it moves the servo)
-or to a pipeline input carrying the command. The benchmark runner offers it as the separate
-mode ``robust_servo_gate`` (:mod:`forte_perception.evaluation.benchmark`); with the veto above it
-no longer changes a number of the set (closing false events are already 0).
-Masked channels (:mod:`forte_perception.slip.mask`) are re-decided with the paper's rule.
+Not in the detector: ignoring flags for a while after a commanded servo change needs the servo
+command, which the detector does not see; it belongs to the controller (which knows when it
+moves the servo) or to a pipeline input carrying the command. The benchmark runner offers it
+as the separate mode ``robust_servo_gate`` (:mod:`forte_perception.evaluation.benchmark`).
+Updates with masked channels (:mod:`forte_perception.slip.mask`) are re-decided from their
+usable channels with this mode's rule (a finger may flag alone); the level-shift veto is not
+applied to them (it needs every channel's level).
 """
 from __future__ import annotations
 
