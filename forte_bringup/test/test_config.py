@@ -4,7 +4,8 @@ Each graph's nodes are started as the real executables with the graph's YAML (ex
 command line ``forte_bringup`` uses); the test then asks every node over its parameter
 services which parameters it declares and what values they hold. A misspelt key (which
 rclpy would silently ignore), a value of the wrong type (the node refuses to start) or a
-node block with no matching node fails here.
+node block with no matching node fails here. A YAML lists only what differs from the node's
+defaults (read from the nodes' parameter tables): a key that repeats a default fails too.
 """
 from __future__ import annotations
 
@@ -20,6 +21,14 @@ from rclpy.parameter import parameter_value_to_python
 
 from forte_bringup.bringup import node_command
 from forte_bringup.graph import GRAPHS, config_folder, params_file
+from forte_control import parameters as control
+from forte_control.state_machine import ControllerParams
+from forte_control.state_machine.lift_check import LiftCheckParams
+from forte_driver.dynamixel.gripper_config import GripperConfig
+from forte_driver.ros import bag_replay_node, gripper_driver_parameters, serial_sensor_parameters
+from forte_perception.pipeline import PipelineConfig
+from forte_perception.ros import perception_node
+from forte_sim.ros import sim_node
 
 
 def load(graph: str) -> dict:
@@ -50,6 +59,38 @@ def flatten(block: dict, prefix: str = '') -> dict:
         else:
             flat[prefix + key] = value
     return flat
+
+
+def table_defaults() -> dict[str, dict[str, object]]:
+    """node name -> parameter -> default, from each node's parameter table (and the core
+    dataclass holding the defaults of its entries with a field)."""
+    tables = {
+        'serial_sensor': [(serial_sensor_parameters.PARAMETERS, None)],
+        'gripper_driver': [(gripper_driver_parameters.PARAMETERS, GripperConfig())],
+        'bag_replay': [(bag_replay_node.PARAMETERS, None)],
+        'sim': [(sim_node.PARAMETERS, None)],
+        'perception': [(perception_node.PARAMETERS, PipelineConfig())],
+        'grasp_controller': [(control.CONTROLLER_PARAMETERS, ControllerParams()),
+                             (control.LIFT_CHECK_PARAMETERS, LiftCheckParams()),
+                             (control.NODE_PARAMETERS, None)],
+    }
+    return {node: {'use_sim_time': False} | {
+        name: spec.default_from(defaults) for table, defaults in groups
+        for name, spec in table.items()} for node, groups in tables.items()}
+
+
+@pytest.mark.parametrize('graph', sorted(GRAPHS))
+def test_yaml_lists_only_what_differs_from_the_node_defaults(graph):
+    """A key whose value is the node's default repeats it (and goes stale when the default
+    changes): the YAML gives only what this graph changes."""
+    defaults = table_defaults()
+    for name, block in load(graph).items():
+        for key, value in flatten(block['ros__parameters']).items():
+            assert key in defaults[name], f'{graph}.yaml: {name} has no parameter {key}'
+            default = defaults[name][key]
+            same = value == pytest.approx(default) if isinstance(value, float) else \
+                value == default
+            assert not same, f'{graph}.yaml {name}.{key}: {value!r} is the node default'
 
 
 def call(node, client, request, timeout=10.0, attempt_timeout=5.0):

@@ -44,6 +44,7 @@ if shutil.which('ros2') is None:
 
 from forte_bringup.graph import params_file  # noqa: E402
 from forte_msgs.action import Grasp  # noqa: E402
+from forte_sim.ros.sim_node import PARAMETERS as SIM_PARAMETERS  # noqa: E402
 
 #: Terminal colour codes (launch's emulate_tty output).
 ANSI = re.compile(r'\x1b\[[0-9;]*m')
@@ -196,9 +197,11 @@ class Running:
 
 
 def sim_real_time_factor() -> float:
-    """The sim graph's default real_time_factor (config/sim.yaml)."""
+    """The sim graph's default real_time_factor (config/sim.yaml, else the node's default:
+    the YAML lists only what differs)."""
     config = yaml.safe_load(params_file('sim').read_text())
-    return float(config['sim']['ros__parameters']['real_time_factor'])
+    given = config['sim']['ros__parameters']
+    return float(given.get('real_time_factor', SIM_PARAMETERS['real_time_factor'].default))
 
 
 def joint_positions() -> list[float]:

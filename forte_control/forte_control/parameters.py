@@ -13,15 +13,21 @@ Bounds are inclusive at both ends, as ``FloatingPointRange`` is. A quantity that
 strictly positive (a speed, a timeout, a cap) has a small positive minimum instead of an open
 bound at zero, so the descriptor can say it.
 
-The defaults of the state machine's parameters stay in :class:`ControllerParams` (the
-paper's values, documented there); the node-only parameters carry their default here. This
-module is pure Python (no rclpy), like the state machine.
+The entries are :class:`forte_ros.parameter_table.ParameterSpec`, the shape every FORTE
+node's table has. The defaults of the state machine's parameters stay in
+:class:`ControllerParams` and :class:`LiftCheckParams` (the paper's values, documented
+there; each entry's ``field`` names its field); the node-only parameters carry their
+default here. This module is pure Python (no rclpy), like the state machine.
 """
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from collections.abc import Iterable, Mapping
+from dataclasses import replace
+from typing import Any
+
+from forte_ros.parameter_table import ParameterSpec, parameter_table
+from forte_ros.parameter_table import range_problems as table_range_problems
 
 # Hard limits no parameter may exceed (also the upper ends of the ranges below).
 HARD_MAX_FORCE = 10.0            # [N], above the force model's 0-8 N range
@@ -45,72 +51,23 @@ MIN_CURRENT = 0.01               # [A]
 MIN_LEVEL = 1e-4                 # [normalised tactile units]
 
 
-@dataclass(frozen=True)
-class ParameterSpec:
-    """One parameter: what it means and which values it may take.
-
-    Parameters
-    ----------
-    name : str
-        Parameter name (a :class:`ControllerParams` field or a node-only parameter).
-    kind : type
-        ``float``, ``int``, ``bool``, ``str`` or ``list`` (a list of strings).
-    unit : str
-        Unit, e.g. ``'rad/s'``; empty for dimensionless values, flags and text.
-    description : str
-        One line for ``ros2 param describe`` (without unit and range: they are appended).
-    low, high : float, optional
-        Inclusive range of a number; ``None`` for flags and text.
-    choices : tuple of str
-        The allowed values of a text parameter (empty: any text).
-    default : object, optional
-        Default of a node-only parameter; ``None`` for the state machine's parameters
-        (their default is the :class:`ControllerParams` field's).
-    read_only : bool
-        The node refuses changes after start-up.
-    """
-
-    name: str
-    kind: type
-    unit: str
-    description: str
-    low: float | None = None
-    high: float | None = None
-    choices: tuple[str, ...] = ()
-    default: object = None
-    read_only: bool = False
-
-    def accepts(self, value: object) -> bool:
-        """True if ``value`` is inside the range / among the choices (type not checked)."""
-        if self.choices:
-            return value in self.choices
-        if self.low is None or self.high is None:
-            return True
-        return isinstance(value, int | float) and math.isfinite(value) \
-            and self.low <= value <= self.high
-
-    def range_text(self) -> str:
-        """The allowed values as text, e.g. ``'[0.001, 3.0] rad/s'`` or ``"'either' | 'both'"``."""
-        if self.choices:
-            return ' | '.join(repr(choice) for choice in self.choices)
-        if self.low is None or self.high is None:
-            return ''
-        return f'[{self.low:g}, {self.high:g}]' + (f' {self.unit}' if self.unit else '')
-
-    def full_description(self) -> str:
-        """Description with unit, as shown by ``ros2 param describe``."""
-        return self.description + (f' [{self.unit}]' if self.unit else '')
-
-
 def _spec(name: str, kind: type, unit: str, description: str, low: float | None = None,
-          high: float | None = None, **extra: object) -> ParameterSpec:
-    return ParameterSpec(name, kind, unit, description, low, high, **extra)
+          high: float | None = None, **extra: Any) -> ParameterSpec:
+    """A table entry, arguments in the order of this module's tables."""
+    return ParameterSpec(name, kind, description, unit, low, high, **extra)
+
+
+def _field_table(specs: Iterable[ParameterSpec], prefix: str = '') -> dict[str, ParameterSpec]:
+    """The table of a dataclass's parameters: each entry's default is the field of its
+    name, and its node name is ``prefix`` + the field name."""
+    return parameter_table(replace(spec, name=prefix + spec.name, field=spec.name)
+                           for spec in specs)
 
 
 SERVO_SPEED = (MIN_SERVO_SPEED, HARD_MAX_SERVO_SPEED)
 
 #: The state machine's parameters (the fields of :class:`ControllerParams`), in field order.
-CONTROLLER_PARAMETERS: dict[str, ParameterSpec] = {spec.name: spec for spec in (
+CONTROLLER_PARAMETERS: dict[str, ParameterSpec] = _field_table((
     # closing and contact
     _spec('closing_speed', float, 'rad/s', 'servo command ramp while closing to contact',
           *SERVO_SPEED),
@@ -183,10 +140,10 @@ CONTROLLER_PARAMETERS: dict[str, ParameterSpec] = {spec.name: spec for spec in (
     _spec('timeout', float, 's', 'whole-grasp timeout', MIN_DURATION, 3600.0),
     _spec('max_current', float, 'A', 'servo current limit sent with every command',
           MIN_CURRENT, HARD_MAX_CURRENT),
-)}
+))
 
 #: Parameters of the node only (not of the state machine), with their defaults.
-NODE_PARAMETERS: dict[str, ParameterSpec] = {spec.name: spec for spec in (
+NODE_PARAMETERS: dict[str, ParameterSpec] = parameter_table((
     _spec('control_rate', float, 'Hz', 'rate of the control step and of arm velocity commands',
           1.0, 200.0, default=20.0, read_only=True),
     _spec('feedback_rate', float, 'Hz', 'rate of action feedback and grasp/state messages',
@@ -207,7 +164,7 @@ NODE_PARAMETERS: dict[str, ParameterSpec] = {spec.name: spec for spec in (
           read_only=True),
     _spec('dry_run', bool, '', 'compute everything but publish zero arm velocity and no servo '
           'commands (bag replay); refused while a grasp is active', default=False),
-)}
+))
 
 
 #: Prefix of the lift verification's parameters on the node (a ``lift_check:`` block in YAML).
@@ -217,9 +174,7 @@ LIFT_CHECK_PREFIX = 'lift_check.'
 #: :class:`forte_control.state_machine.lift_check.LiftCheckParams`, which holds their
 #: defaults), under their node names. Levels are in the tared filtered channels' normalised
 #: units (-1..1).
-LIFT_CHECK_PARAMETERS: dict[str, ParameterSpec] = {
-    LIFT_CHECK_PREFIX + spec.name: replace(spec, name=LIFT_CHECK_PREFIX + spec.name)
-    for spec in (
+LIFT_CHECK_PARAMETERS: dict[str, ParameterSpec] = _field_table((
     _spec('verify_lift', bool, '', 'LIFTED only with evidence that the object is carried '
           '(false: from the commanded lift alone, the old behaviour)'),
     _spec('balance_window', float, 's', 'averaging time of the two finger levels',
@@ -256,7 +211,7 @@ LIFT_CHECK_PARAMETERS: dict[str, ParameterSpec] = {
           'the lift that counts as gross slip', 0.01, 1.0),
     _spec('gross_slip_interval', float, 's', 'least time between two gross-slip '
           'tightenings', MIN_DURATION, 10.0),
-    )}
+), LIFT_CHECK_PREFIX)
 
 
 def range_problems(values: Mapping[str, object]) -> list[str]:
@@ -272,16 +227,8 @@ def range_problems(values: Mapping[str, object]) -> list[str]:
     -------
     list of str
         One reason per refused value, ``'<name>=<value> outside <range>'`` (a number) or
-        ``'<name> must be one of <choices>, got <value>'`` (a text); empty when all fit.
+        ``'<name> must be one of <choices>, got <value>'`` (a text); empty when all fit
+        (:func:`forte_ros.parameter_table.range_problems` over the three tables).
     """
-    out: list[str] = []
-    for name, value in values.items():
-        spec = CONTROLLER_PARAMETERS.get(name) or NODE_PARAMETERS.get(name) \
-            or LIFT_CHECK_PARAMETERS.get(name)
-        if spec is None or spec.accepts(value):
-            continue
-        if spec.choices:
-            out.append(f'{name} must be one of {spec.range_text()}, got {value!r}')
-        else:
-            out.append(f'{name}={value} outside {spec.range_text()}')
-    return out
+    return table_range_problems(
+        (CONTROLLER_PARAMETERS, NODE_PARAMETERS, LIFT_CHECK_PARAMETERS), values)

@@ -8,8 +8,9 @@ values back; nothing else declares a FORTE parameter.
 A table is a ``dict`` name -> :class:`ParameterSpec` (build it with :func:`parameter_table`).
 An entry's default is either its own (``default``, node-only parameters) or the default of
 a field of the core dataclass the node builds (``field``, a dotted path such as
-``'slip.window'``), so a default is written once, in the core. Bounds are inclusive at both
-ends, as ``FloatingPointRange`` / ``IntegerRange`` are.
+``'slip.window'``), so a default is written once, in the core; :func:`replace_fields` builds
+the core dataclass back from parameter values through the same paths. Bounds are inclusive
+at both ends, as ``FloatingPointRange`` / ``IntegerRange`` are.
 """
 from __future__ import annotations
 
@@ -19,7 +20,8 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ['ParameterSpec', 'field_default', 'parameter_table', 'range_problems']
+__all__ = ['ParameterSpec', 'field_default', 'parameter_table', 'range_problems',
+           'replace_fields']
 
 
 @dataclass(frozen=True)
@@ -94,9 +96,27 @@ class ParameterSpec:
             return f'{self.name} must be one of {self.range_text()}, got {value!r}'
         return f'{self.name}={value} outside {self.range_text()}'
 
+    def convert(self, value: object) -> Any:
+        """``value`` as :attr:`kind` (a ``list`` for a list of strings).
+
+        Raises
+        ------
+        TypeError, ValueError
+            ``value`` cannot be converted.
+        """
+        return list(value) if self.kind is list else self.kind(value)
+
     def default_from(self, defaults: object | None = None) -> Any:
         """The default value: :attr:`default`, or the :attr:`field` of ``defaults`` (an
-        instance of the core dataclass), converted to :attr:`kind`."""
+        instance of the core dataclass), converted to :attr:`kind`.
+
+        Raises
+        ------
+        ValueError
+            The default is a field and ``defaults`` is ``None``.
+        AttributeError
+            :attr:`field` is not a field of ``defaults`` (a stale table entry).
+        """
         if self.field is None:
             value = self.default
         elif defaults is None:
@@ -104,7 +124,7 @@ class ParameterSpec:
                              'core dataclass, and no dataclass instance was given')
         else:
             value = field_default(defaults, self.field)
-        return list(value) if self.kind is list else self.kind(value)
+        return self.convert(value)
 
 
 def field_default(instance: object, path: str) -> Any:
@@ -157,3 +177,52 @@ def range_problems(tables: Iterable[Mapping[str, ParameterSpec]],
         if spec is not None and (reason := spec.problem(value)):
             out.append(reason)
     return out
+
+
+def replace_fields(instance: Any, table: Mapping[str, ParameterSpec],
+                   values: Mapping[str, object]) -> Any:
+    """A copy of the (nested, possibly frozen) dataclass ``instance`` with the fields of the
+    parameters in ``values`` replaced.
+
+    Parameters
+    ----------
+    instance : dataclass instance
+        The core dataclass (e.g. its defaults, or the configuration in use).
+    table : mapping
+        Parameter table; an entry's :attr:`ParameterSpec.field` names the field it sets.
+    values : mapping
+        Parameter name -> value, converted with :meth:`ParameterSpec.convert`; names not in
+        the table, and entries without a field (node-only parameters), are ignored.
+
+    Returns
+    -------
+    dataclass instance
+        The new instance (``instance`` itself is not modified).
+
+    Raises
+    ------
+    AttributeError
+        A field path of the table is not a field of ``instance``.
+    TypeError, ValueError
+        A value cannot be converted to its parameter's kind.
+    """
+    by_field = {table[name].field: table[name].convert(value) for name, value in values.items()
+                if name in table and table[name].field is not None}
+    return _replace_paths(instance, by_field)
+
+
+def _replace_paths(instance: Any, values: Mapping[str, object]) -> Any:
+    """``instance`` with the values at dotted field paths replaced (nested dataclasses are
+    replaced in turn)."""
+    own: dict[str, object] = {}
+    nested: dict[str, dict[str, object]] = {}
+    for path, value in values.items():
+        head, _, rest = path.partition('.')
+        field_default(instance, head)  # a stale path raises AttributeError
+        if rest:
+            nested.setdefault(head, {})[rest] = value
+        else:
+            own[head] = value
+    for head, inner in nested.items():
+        own[head] = _replace_paths(getattr(instance, head), inner)
+    return dataclasses.replace(instance, **own) if own else instance

@@ -12,11 +12,13 @@ from pathlib import Path
 import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from rcl_interfaces.msg import ParameterType
 from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 from std_msgs.msg import String
 
 from forte_ros import diagnostics, qos
-from forte_ros.parameters import parameter_descriptor, with_range
+from forte_ros.parameter_table import ParameterSpec
+from forte_ros.parameters import spec_descriptor
 from forte_ros.testing import SpinningGraph, wait_until
 
 CONTRACTS = Path(__file__).resolve().parents[2] / 'docs' / 'contracts.md'
@@ -87,20 +89,26 @@ def test_spinning_graph_delivers_real_messages_and_closes():
     assert not graph.context.ok()
 
 
-def test_descriptor_range_follows_the_default_type():
-    integer = parameter_descriptor('samples per message', 20, (1, 2000), read_only=True)
+def test_descriptor_range_follows_the_kind():
+    integer = spec_descriptor(ParameterSpec('batch_size', int, 'samples per message', low=1,
+                                            high=2000, default=20, read_only=True))
     assert integer.read_only and integer.description == 'samples per message'
+    assert integer.type == ParameterType.PARAMETER_INTEGER and integer.name == 'batch_size'
     assert [(r.from_value, r.to_value, r.step) for r in integer.integer_range] == [(1, 2000, 1)]
     assert not integer.floating_point_range
-    real = parameter_descriptor('period [s]', 0.5, (0.05, 60))
+    real = spec_descriptor(ParameterSpec('period', float, 'period', 's', 0.05, 60, default=0.5))
+    assert real.description == 'period [s]' and real.type == ParameterType.PARAMETER_DOUBLE
     assert [(r.from_value, r.to_value, r.step) for r in real.floating_point_range] == [
         (0.05, 60.0, 0.0)]
     assert not real.integer_range and not real.read_only
-    stepped = parameter_descriptor('direction', -1, (-1, 1), integer_step=2)
-    assert [(r.from_value, r.to_value, r.step) for r in stepped.integer_range] == [(-1, 1, 2)]
-    for default in (True, 'forte_base_link'):      # no range for a flag or a text
-        plain = parameter_descriptor('x', default, (0, 1))
+    any_step = spec_descriptor(ParameterSpec('rate', int, 'rate', low=1, high=4000,
+                                             integer_step=0, default=2000))
+    assert [(r.from_value, r.to_value, r.step) for r in any_step.integer_range] == [(1, 4000, 0)]
+    for kind, default in ((bool, True), (str, 'forte_base_link')):  # no range: flag, text
+        plain = spec_descriptor(ParameterSpec('x', kind, 'x', low=0, high=1, default=default))
         assert not plain.integer_range and not plain.floating_point_range
-    unbounded = parameter_descriptor('x', 3)
-    assert not unbounded.integer_range
-    assert with_range(unbounded, 0, 9, integer=True).integer_range[0].to_value == 9
+        assert not plain.additional_constraints
+    unbounded = spec_descriptor(ParameterSpec('x', int, 'x', default=3))
+    assert not unbounded.integer_range and not unbounded.floating_point_range
+    names = spec_descriptor(ParameterSpec('joints', list, 'joint names', default=('a',)))
+    assert names.type == ParameterType.PARAMETER_STRING_ARRAY

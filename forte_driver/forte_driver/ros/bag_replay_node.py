@@ -34,7 +34,8 @@ from rclpy.serialization import deserialize_message
 from forte_driver.replay.mcap_source import BagError, BagMessage, BagReadReport, bag_files, read_bag
 from forte_ros import publish_quietly, run_node
 from forte_ros.diagnostics import ERROR, OK, diagnostic_array, diagnostic_status
-from forte_ros.parameters import parameter_descriptor
+from forte_ros.parameter_table import ParameterSpec, parameter_table
+from forte_ros.parameters import declare_table
 from forte_ros.qos import DIAGNOSTICS, GRASP_STATE, SENSOR_FRAMES, reliable
 
 #: History depth of the reliable replay publishers [messages] (about 100 s of frames).
@@ -63,24 +64,27 @@ def relative_name(topic: str) -> str:
     return topic.lstrip('/')
 
 
-#: Every parameter of the node: name -> (default, description, (low, high) range or None,
-#: read only), in the order of declaration.
-PARAMETERS: dict[str, tuple[object, str, tuple[float, float] | None, bool]] = {
-    'bag_path': ('', 'rosbag2 MCAP folder or single .mcap file to replay', None, True),
-    'topics': (['tactile/frames'],
-               'bag topics to republish (relative names; published relative so they can be '
-               'remapped). Empty = every topic of the bag', None, True),
-    'rate': (1.0, 'playback speed factor: 1.0 = recorded timing, 2.0 = twice as fast, 0.0 = '
-             'as fast as possible', (0.0, 1000.0), False),
-    'reliable': (False, 'publish tactile/frames reliable instead of sensor-data best effort '
-                 '(use with rate 0 so nothing is dropped)', None, True),
-    'start_delay': (0.5, 'seconds to wait after start-up before the first message [s]',
-                    (0.0, 60.0), True),
-    'wait_for_subscribers': (0, 'before the first message of each topic, wait (up to 30 s) '
-                             'until that many subscribers matched (0 = do not wait)',
-                             (0, 100), True),
-    'exit_when_done': (False, 'shut the node down after the last message', None, True),
-}
+#: Every parameter of the node, in the order of declaration (all node-only: their defaults
+#: are here).
+PARAMETERS: dict[str, ParameterSpec] = parameter_table([
+    ParameterSpec('bag_path', str, 'rosbag2 MCAP folder or single .mcap file to replay',
+                  default='', read_only=True),
+    ParameterSpec('topics', list, 'bag topics to republish (relative names; published '
+                  'relative so they can be remapped). Empty = every topic of the bag',
+                  default=('tactile/frames',), read_only=True),
+    ParameterSpec('rate', float, 'playback speed factor: 1.0 = recorded timing, 2.0 = twice '
+                  'as fast, 0.0 = as fast as possible', low=0.0, high=1000.0, default=1.0),
+    ParameterSpec('reliable', bool, 'publish tactile/frames reliable instead of sensor-data '
+                  'best effort (use with rate 0 so nothing is dropped)', default=False,
+                  read_only=True),
+    ParameterSpec('start_delay', float, 'seconds to wait after start-up before the first '
+                  'message', 's', 0.0, 60.0, default=0.5, read_only=True),
+    ParameterSpec('wait_for_subscribers', int, 'before the first message of each topic, wait '
+                  '(up to 30 s) until that many subscribers matched (0 = do not wait)', low=0,
+                  high=100, default=0, read_only=True),
+    ParameterSpec('exit_when_done', bool, 'shut the node down after the last message',
+                  default=False, read_only=True),
+])
 
 
 class ReplayClock:
@@ -119,7 +123,7 @@ class BagReplayNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('bag_replay', **kwargs)
-        self._declare_parameters()
+        declare_table(self, PARAMETERS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self.bag_path = self.get_parameter('bag_path').value
@@ -151,11 +155,6 @@ class BagReplayNode(Node):
         self._thread.start()
 
     # parameters ------------------------------------------------------------------------
-    def _declare_parameters(self) -> None:
-        for name, (default, description, bounds, read_only) in PARAMETERS.items():
-            self.declare_parameter(name, default,
-                                   parameter_descriptor(description, default, bounds, read_only))
-
     def _on_set_parameters(self, parameters: list) -> SetParametersResult:
         for parameter in parameters:
             if parameter.name == 'rate':

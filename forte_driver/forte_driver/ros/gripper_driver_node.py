@@ -52,6 +52,7 @@ from forte_driver.ros.gripper_driver_parameters import (
 from forte_msgs.msg import ServoCommand
 from forte_ros import ForteLifecycleNode, run_node
 from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
+from forte_ros.parameters import declare_table, read_table
 from forte_ros.qos import COMMANDS, DIAGNOSTICS
 
 TEMPERATURE_WARNING_MARGIN_C = 5.0
@@ -64,7 +65,7 @@ class GripperDriverNode(ForteLifecycleNode):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('gripper_driver', **kwargs)
-        self._declare_parameters()
+        declare_table(self, PARAMETERS, GripperConfig())
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.gripper: Gripper | None = None
         self._configured = False
@@ -94,13 +95,8 @@ class GripperDriverNode(ForteLifecycleNode):
                 self.trigger_activate()
 
     # -- parameters ------------------------------------------------------------------
-    def _declare_parameters(self) -> None:
-        for parameter in PARAMETERS:
-            self.declare_parameter(parameter.name, parameter.default, parameter.descriptor())
-
     def _config_from(self, overrides: dict[str, Any] | None = None) -> GripperConfig:
-        values = {name: self.get_parameter(name).value for name in (
-            *HARDWARE_PARAMETERS, 'default_current', 'default_profile_velocity')}
+        values = read_table(self, PARAMETERS)
         values.update(overrides or {})
         return gripper_config(values)
 

@@ -4,48 +4,49 @@ table in docs/serial_driver.md."""
 from __future__ import annotations
 
 from rcl_interfaces.msg import ParameterType, SetParametersResult
+from rclpy.node import Node
 
 from forte_ros.contract import SAMPLE_RATE
-from forte_ros.parameters import parameter_descriptor
+from forte_ros.parameter_table import ParameterSpec, parameter_table
+from forte_ros.parameters import declare_table
 
-#: Every parameter of the node: name -> (default, description, (low, high) range or None,
-#: read only). A range is an integer range for an integer default, else a floating point
-#: range; the table's order is the order of declaration.
-PARAMETERS: dict[str, tuple[object, str, tuple[float, float] | None, bool]] = {
-    'port': ('/dev/forte_sensor',
-             'serial device of the sensor board (udev name, see forte_driver/udev)',
-             None, False),
-    'protocol': ('binary', "'binary' (FORTE protocol v1) or 'ascii' (legacy T1:..,T6:.. lines)",
-                 None, False),
-    'baud_rate': (2000000, 'baud rate [bit/s]; ignored by USB CDC devices, used by UART '
-                  'bridges', (9600, 12000000), False),
-    'rtscts': (False, 'hardware flow control (the legacy firmware used RTS/CTS)', None, False),
-    'sample_rate_hz': (int(SAMPLE_RATE), 'scan rate [Hz]: sent with SET_RATE (binary), nominal '
-                       'rate (ascii); must divide 1000000', (1, 4000), False),
-    'batch_size': (20, 'samples per TactileFrames message (a batch also ends at every gap)',
-                   (1, 2000), False),
-    'reliable': (False, 'reliable QoS on tactile/frames (for recording); default sensor data '
-                 'QoS', None, False),
-    'frame_id': ('forte_base_link', 'frame_id of the published frames', None, False),
-    'reconnect_period': (0.5, 'time between attempts to reopen a lost device [s]',
-                         (0.05, 60.0), False),
-    'diagnostics_period': (1.0, 'period of /diagnostics messages [s]', (0.1, 60.0), True),
-    'clock_window': (20.0, 'device clock fit window [s]', (1.0, 600.0), False),
-    'autostart': (False, 'configure and activate without a lifecycle manager (retries while '
-                  'the device is absent)', None, True),
-    'error_hold': (5.0, 'a reader error keeps /diagnostics at ERROR this long [s]',
-                   (0.1, 600.0), False),
-    'command_timeout': (0.5, 'resend START if not acknowledged within this time [s]',
-                        (0.05, 10.0), False),
-}
+#: Every parameter of the node, in the order of declaration (all node-only: their defaults
+#: are here). Integer ranges have step 0 (any integer inside).
+PARAMETERS: dict[str, ParameterSpec] = parameter_table([
+    ParameterSpec('port', str, 'serial device of the sensor board (udev name, see '
+                  'forte_driver/udev)', default='/dev/forte_sensor'),
+    ParameterSpec('protocol', str, "'binary' (FORTE protocol v1) or 'ascii' (legacy "
+                  "T1:..,T6:.. lines)", default='binary'),
+    ParameterSpec('baud_rate', int, 'baud rate [bit/s]; ignored by USB CDC devices, used by '
+                  'UART bridges', low=9600, high=12000000, integer_step=0, default=2000000),
+    ParameterSpec('rtscts', bool, 'hardware flow control (the legacy firmware used RTS/CTS)',
+                  default=False),
+    ParameterSpec('sample_rate_hz', int, 'scan rate [Hz]: sent with SET_RATE (binary), '
+                  'nominal rate (ascii); must divide 1000000', low=1, high=4000,
+                  integer_step=0, default=int(SAMPLE_RATE)),
+    ParameterSpec('batch_size', int, 'samples per TactileFrames message (a batch also ends '
+                  'at every gap)', low=1, high=2000, integer_step=0, default=20),
+    ParameterSpec('reliable', bool, 'reliable QoS on tactile/frames (for recording); default '
+                  'sensor data QoS', default=False),
+    ParameterSpec('frame_id', str, 'frame_id of the published frames', default='forte_base_link'),
+    ParameterSpec('reconnect_period', float, 'time between attempts to reopen a lost device',
+                  's', 0.05, 60.0, default=0.5),
+    ParameterSpec('diagnostics_period', float, 'period of /diagnostics messages', 's', 0.1,
+                  60.0, default=1.0, read_only=True),
+    ParameterSpec('clock_window', float, 'device clock fit window', 's', 1.0, 600.0,
+                  default=20.0),
+    ParameterSpec('autostart', bool, 'configure and activate without a lifecycle manager '
+                  '(retries while the device is absent)', default=False, read_only=True),
+    ParameterSpec('error_hold', float, 'a reader error keeps /diagnostics at ERROR this long',
+                  's', 0.1, 600.0, default=5.0),
+    ParameterSpec('command_timeout', float, 'resend START if not acknowledged within this time',
+                  's', 0.05, 10.0, default=0.5),
+])
 
 
-def declare_parameters(node) -> None:
+def declare_parameters(node: Node) -> None:
     """Declare every parameter of the serial sensor node (:data:`PARAMETERS`)."""
-    for name, (default, description, bounds, read_only) in PARAMETERS.items():
-        node.declare_parameter(name, default,
-                               parameter_descriptor(description, default, bounds, read_only,
-                                                    integer_step=0))
+    declare_table(node, PARAMETERS)
 
 
 def validate_parameters(parameters, state_label: str) -> SetParametersResult:

@@ -43,10 +43,7 @@ from pathlib import Path
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from rcl_interfaces.msg import (
-    ParameterDescriptor,
-    SetParametersResult,
-)
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.node import Node
 from rclpy.task import Future
@@ -57,63 +54,80 @@ from forte_msgs.srv import Tare
 from forte_perception.channel_health import channel_report
 from forte_perception.force import ForceModel
 from forte_perception.pipeline import PerceptionOutput, PerceptionPipeline, PipelineConfig
-from forte_perception.slip.detector import SlipParams
-from forte_perception.slip.params import RECOMMENDED_MODE
 from forte_ros import run_node
-from forte_ros.contract import CHANNEL_NAMES, SAMPLE_RATE
+from forte_ros.contract import CHANNEL_NAMES
 from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
-from forte_ros.parameters import parameter_descriptor
+from forte_ros.parameter_table import ParameterSpec, parameter_table, replace_fields
+from forte_ros.parameters import declare_table, parameter_update, read_table
 from forte_ros.qos import DIAGNOSTICS, SENSOR_FRAMES, TACTILE_STATE
 
-#: Pipeline parameters: name -> (default, description, (low, high), config path).
-PIPELINE_PARAMETERS: dict[str, tuple] = {
-    'median_window': (11, 'running median length M [samples]', (1, 201), 'median_window'),
-    'contact_window': (200, 'contact window w [samples]', (2, 20000), 'contact_window'),
-    'contact_threshold': (0.01, 'contact threshold tau, max - min over w [normalised units; '
-                          '0.01 = 0.5 % of the 2.0 span]', (1e-6, 2.0), 'contact_threshold'),
-    'tare_duration': (2.0, 'quiet period averaged by a tare [s]', (0.001, 60.0),
-                      'tare_duration'),
-    'auto_tare': (True, 'tare from the first quiet period after (re)start', None, 'auto_tare'),
-    'force_rate': (100.0, 'force estimates per second; sample_rate / force_rate must be an '
-                   'integer [Hz]', (0.1, 20000.0), 'force_rate'),
-    'slip_window': (400, 'slip FFT window N [samples]', (8, 8192), 'slip.window'),
-    'slip_hop': (4, 'samples between slip detector updates (1 = every sample)', (1, 8192),
-                 'slip.hop'),
-    'slip_f_min': (10.0, 'slip band lower edge [Hz]', (0.0, 1e5), 'slip.f_min'),
-    'slip_f_max': (50.0, 'slip band upper edge [Hz]', (0.0, 1e5), 'slip.f_max'),
-    'slip_history': (15, 'PSD history length V [updates]', (2, 1000), 'slip.history'),
-    'slip_delta': (0.1, 'minimal increment for monotonicity delta [dB]', (-1e3, 1e3),
-                   'slip.delta'),
-    'slip_alpha': (0.6, 'minimum group average variance alpha [dB^2]', (-1e3, 1e6),
-                   'slip.alpha'),
-    'slip_threshold': (2.0, 'slip threshold T [dB^2]', (-1e3, 1e6), 'slip.threshold'),
-    'slip_mode': (RECOMMENDED_MODE, "slip detector mode: 'robust' (quantisation floor, "
+#: Every parameter of the node, in the order of declaration. Defaults: the fields of
+#: :class:`PipelineConfig` (``field``; ``slip.*`` of its ``SlipParams``), the node-only
+#: ones here. A change of a parameter with a field restarts the pipeline.
+PARAMETERS: dict[str, ParameterSpec] = parameter_table([
+    ParameterSpec('model_path', str, 'force model file (.npz written by forte_train_force); '
+                  'empty: no force estimate (force_valid false)', default=''),
+    ParameterSpec('sample_rate', float, 'expected input sample rate [Hz]; messages with another '
+                  'sample_period are dropped', low=1.0, high=1e6, field='fs', read_only=True),
+    ParameterSpec('frame_id', str, 'frame_id of tactile/state when the input has none',
+                  default='forte_base_link'),
+    ParameterSpec('stale_timeout', float, 'no input for this long -> publish data_valid false',
+                  's', 0.001, 60.0, default=0.1),
+    ParameterSpec('diagnostics_period', float, 'period of /diagnostics', 's', 0.05, 60.0,
+                  default=1.0, read_only=True),
+    ParameterSpec('median_window', int, 'running median length M', 'samples', 1, 201,
+                  field='median_window'),
+    ParameterSpec('contact_window', int, 'contact window w', 'samples', 2, 20000,
+                  field='contact_window'),
+    ParameterSpec('contact_threshold', float, 'contact threshold tau, max - min over w '
+                  '[normalised units; 0.01 = 0.5 % of the 2.0 span]', low=1e-6, high=2.0,
+                  field='contact_threshold'),
+    ParameterSpec('tare_duration', float, 'quiet period averaged by a tare', 's', 0.001, 60.0,
+                  field='tare_duration'),
+    ParameterSpec('auto_tare', bool, 'tare from the first quiet period after (re)start',
+                  field='auto_tare'),
+    ParameterSpec('force_rate', float, 'force estimates per second; sample_rate / force_rate '
+                  'must be an integer', 'Hz', 0.1, 20000.0, field='force_rate'),
+    ParameterSpec('slip_window', int, 'slip FFT window N', 'samples', 8, 8192,
+                  field='slip.window'),
+    ParameterSpec('slip_hop', int, 'samples between slip detector updates (1 = every sample)',
+                  low=1, high=8192, field='slip.hop'),
+    ParameterSpec('slip_f_min', float, 'slip band lower edge', 'Hz', 0.0, 1e5,
+                  field='slip.f_min'),
+    ParameterSpec('slip_f_max', float, 'slip band upper edge', 'Hz', 0.0, 1e5,
+                  field='slip.f_max'),
+    ParameterSpec('slip_history', int, 'PSD history length V', 'updates', 2, 1000,
+                  field='slip.history'),
+    ParameterSpec('slip_delta', float, 'minimal increment for monotonicity delta', 'dB', -1e3,
+                  1e3, field='slip.delta'),
+    ParameterSpec('slip_alpha', float, 'minimum group average variance alpha', 'dB^2', -1e3,
+                  1e6, field='slip.alpha'),
+    ParameterSpec('slip_threshold', float, 'slip threshold T', 'dB^2', -1e3, 1e6,
+                  field='slip.threshold'),
+    ParameterSpec('slip_mode', str, "slip detector mode: 'robust' (quantisation floor, "
                   "level-shift veto, one finger alone; wins on the held-out slip set) or "
-                  "'paper' (the paper's algorithm bit for bit)", None, 'slip.mode'),
-    'input_limit': (1.0, 'largest valid |raw value| [normalised units; the protocol clips at '
-                    '+-1024 counts = +-1.0]; beyond it, or NaN/inf, a value is invalid: its '
-                    'channel is masked, the others continue', (1e-3, 1e6), 'input_limit'),
-    'stuck_duration': (5.0, 'a channel exactly constant this long is reported stuck (WARN, '
-                       'not invalidating) [s]', (0.01, 3600.0), 'stuck_duration'),
-}
+                  "'paper' (the paper's algorithm bit for bit)", field='slip.mode'),
+    ParameterSpec('input_limit', float, 'largest valid |raw value| [normalised units; the '
+                  'protocol clips at +-1024 counts = +-1.0]; beyond it, or NaN/inf, a value is '
+                  'invalid: its channel is masked, the others continue', low=1e-3, high=1e6,
+                  field='input_limit'),
+    ParameterSpec('stuck_duration', float, 'a channel exactly constant this long is reported '
+                  'stuck (WARN, not invalidating)', 's', 0.01, 3600.0, field='stuck_duration'),
+])
 
 
-def build_config(values: dict, sample_rate: float) -> PipelineConfig:
-    """PipelineConfig from parameter values (raises ValueError with a reason)."""
-    slip = SlipParams(
-        window=int(values['slip_window']), hop=int(values['slip_hop']),
-        f_min=float(values['slip_f_min']), f_max=float(values['slip_f_max']),
-        history=int(values['slip_history']), delta=float(values['slip_delta']),
-        alpha=float(values['slip_alpha']), threshold=float(values['slip_threshold']),
-        mode=str(values['slip_mode']))
-    config = PipelineConfig(
-        fs=float(sample_rate), median_window=int(values['median_window']),
-        contact_window=int(values['contact_window']),
-        contact_threshold=float(values['contact_threshold']),
-        tare_duration=float(values['tare_duration']), auto_tare=bool(values['auto_tare']),
-        force_rate=float(values['force_rate']), slip=slip,
-        input_limit=float(values['input_limit']),
-        stuck_duration=float(values['stuck_duration']))
+def build_config(values: dict) -> PipelineConfig:
+    """The :class:`PipelineConfig` of parameter values (name -> value; parameters without a
+    field are ignored, missing ones keep the dataclass default).
+
+    Raises
+    ------
+    ValueError
+        The configuration is unusable (the reason).
+    TypeError
+        A value cannot be converted to its parameter's kind.
+    """
+    config = replace_fields(PipelineConfig(), PARAMETERS, values)
     config.validate()
     return config
 
@@ -135,26 +149,11 @@ class PerceptionNode(Node):
 
     def __init__(self, **kwargs) -> None:
         super().__init__('perception', **kwargs)
-        self.declare_parameter('model_path', '', ParameterDescriptor(
-            description='force model file (.npz written by forte_train_force); empty: no '
-                        'force estimate (force_valid false)'))
-        self.declare_parameter('sample_rate', SAMPLE_RATE, parameter_descriptor(
-            'expected input sample rate [Hz]; messages with another sample_period are dropped',
-            SAMPLE_RATE, (1.0, 1e6), read_only=True))
-        self.declare_parameter('frame_id', 'forte_base_link', ParameterDescriptor(
-            description='frame_id of tactile/state when the input has none'))
-        self.declare_parameter('stale_timeout', 0.1, parameter_descriptor(
-            'no input for this long -> publish data_valid false [s]', 0.1, (0.001, 60.0)))
-        self.declare_parameter('diagnostics_period', 1.0, parameter_descriptor(
-            'period of /diagnostics [s]', 1.0, (0.05, 60.0), read_only=True))
-        for name, (default, description, bounds, _) in PIPELINE_PARAMETERS.items():
-            self.declare_parameter(name, default,
-                                   parameter_descriptor(description, default, bounds))
+        declare_table(self, PARAMETERS, PipelineConfig())
 
         self._lock = threading.RLock()
         self._sample_rate = float(self.get_parameter('sample_rate').value)
-        values = {name: self.get_parameter(name).value for name in PIPELINE_PARAMETERS}
-        config = build_config(values, self._sample_rate)  # raises: bad YAML stops the node
+        config = build_config(read_table(self, PARAMETERS))  # raises: bad YAML stops the node
         model = load_model(str(self.get_parameter('model_path').value))
         self._pipeline = PerceptionPipeline(config, model)
         self._frame_id = str(self.get_parameter('frame_id').value)
@@ -200,37 +199,23 @@ class PerceptionNode(Node):
     # ------------------------------------------------------------------ parameters
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         with self._lock:
-            values = {name: self.get_parameter(name).value for name in PIPELINE_PARAMETERS}
-            pipeline_change = False
-            model = self._pipeline.model
-            model_change = False
-            stale = None
-            for p in parameters:
-                if p.name in PIPELINE_PARAMETERS:
-                    default = PIPELINE_PARAMETERS[p.name][0]
-                    for kind, word in ((bool, 'a boolean'), (str, 'a string')):
-                        if isinstance(default, kind) != isinstance(p.value, kind):
-                            return SetParametersResult(successful=False,
-                                                       reason=f'{p.name} must be {word}')
-                    values[p.name] = p.value
-                    pipeline_change = True
-                elif p.name == 'model_path':
-                    try:
-                        model = load_model(str(p.value))
-                    except ValueError as exc:
-                        return SetParametersResult(successful=False, reason=str(exc))
-                    model_change = True
-                elif p.name == 'stale_timeout':
-                    if not (isinstance(p.value, float) and p.value > 0):
-                        return SetParametersResult(successful=False,
-                                                   reason='stale_timeout must be > 0 s')
-                    stale = float(p.value)
+            changes, reason = parameter_update(parameters, PARAMETERS)
+            if reason:
+                return SetParametersResult(successful=False, reason=reason)
             config = None
-            if pipeline_change:
+            if any(PARAMETERS[name].field is not None for name in changes):
                 try:
-                    config = build_config(values, self._sample_rate)
+                    config = build_config({**read_table(self, PARAMETERS), **changes})
                 except (ValueError, TypeError) as exc:
                     return SetParametersResult(successful=False, reason=str(exc))
+            model_change = 'model_path' in changes
+            model = self._pipeline.model
+            if model_change:
+                try:
+                    model = load_model(changes['model_path'])
+                except ValueError as exc:
+                    return SetParametersResult(successful=False, reason=str(exc))
+            stale = changes.get('stale_timeout')
             # all checks passed: apply
             if config is not None:
                 self._gap_offset += self._pipeline.gaps
@@ -246,9 +231,7 @@ class PerceptionNode(Node):
                 self._stale_timer.cancel()
                 self._stale_timer = self.create_timer(stale, self._check_stale,
                                                       callback_group=self._group)
-            for p in parameters:
-                if p.name == 'frame_id':
-                    self._frame_id = str(p.value)
+            self._frame_id = changes.get('frame_id', self._frame_id)
         return SetParametersResult(successful=True)
 
     # ------------------------------------------------------------------ frames

@@ -43,7 +43,8 @@ from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileFrames
 from forte_ros import ForteLifecycleNode, run_node
 from forte_ros.contract import CHANNEL_NAMES, SAMPLE_PERIOD
 from forte_ros.diagnostics import OK, diagnostic_array, diagnostic_status
-from forte_ros.parameters import parameter_descriptor
+from forte_ros.parameter_table import ParameterSpec, parameter_table
+from forte_ros.parameters import declare_table
 from forte_ros.qos import COMMANDS, DIAGNOSTICS, GROUND_TRUTH, SENSOR_FRAMES, reliable
 from forte_sim import SCENE_NAMES, Scene, make_scene
 
@@ -56,37 +57,39 @@ FAST_PERIOD = 1e-4          # timer period at real_time_factor 0 (free running) 
 RELIABLE_FRAMES_DEPTH = 1000    # reliable frames queue: 10 s of batches for slow readers
 
 
-#: Every parameter of the node: name -> (default, description, value range or None,
-#: read only), in the order of declaration. The scene's parameters
-#: (:data:`SCENE_PARAMETERS`) apply at the next configure (cleanup + configure = a new scene).
-PARAMETERS: dict[str, tuple[object, str, tuple[float, float] | None, bool]] = {
-    'scene': ('grasp', f'scene name, one of {", ".join(SCENE_NAMES)} (applies at configure)',
-              None, False),
-    'object': ('apple', 'object type (grasp scenes, see forte_sim.OBJECTS) or indentor '
-               'name (calibration scene) (applies at configure)', None, False),
-    'seed': (0, 'seed of every random draw of the scene (applies at configure)',
-             (0, 2 ** 31 - 1), False),
-    'trial': (0, 'trial index reported in sim/ground_truth (applies at configure)',
-              (0, 2 ** 31 - 1), False),
-    'real_time_factor': (1.0, 'simulated seconds per wall second; 0 = as fast as possible',
-                         (0.0, 1000.0), False),
-    'publish_clock': (False, 'publish /clock (rosgraph_msgs/Clock) with the simulation time',
-                      None, True),
-    'clock_rate': (20.0, '/clock messages per simulated second (at most one per batch): every '
-                   '/clock message wakes every node on the simulation clock, so it is kept '
-                   'low; nodes that need finer time read the sample stamps [Hz]',
-                   (1.0, 2000.0), True),
-    'reliable': (False, 'reliable QoS on tactile/frames (for recording); default sensor data '
-                 'QoS', None, True),
-    'batch_size': (20, 'samples per TactileFrames message', (1, 2000), True),
-    'frame_id': ('forte_base_link', 'frame_id of tactile/frames', None, True),
-    'timer_period': (0.01, 'wall period of the production timer in real time [s]',
-                     (0.001, 0.1), True),
-    'cmd_vel_timeout': (0.5, 'the arm stops when no arm/cmd_vel arrived for this long '
-                        '(simulated) [s]', (0.01, 60.0), False),
-    'autostart': (True, 'configure and activate at start-up without a lifecycle manager',
-                  None, True),
-}
+#: Every parameter of the node, in the order of declaration (all node-only: their defaults
+#: are here). The scene's parameters (:data:`SCENE_PARAMETERS`) apply at the next configure
+#: (cleanup + configure = a new scene).
+PARAMETERS: dict[str, ParameterSpec] = parameter_table([
+    ParameterSpec('scene', str, f'scene name, one of {", ".join(SCENE_NAMES)} (applies at '
+                  'configure)', default='grasp'),
+    ParameterSpec('object', str, 'object type (grasp scenes, see forte_sim.OBJECTS) or '
+                  'indentor name (calibration scene) (applies at configure)', default='apple'),
+    ParameterSpec('seed', int, 'seed of every random draw of the scene (applies at configure)',
+                  low=0, high=2 ** 31 - 1, default=0),
+    ParameterSpec('trial', int, 'trial index reported in sim/ground_truth (applies at '
+                  'configure)', low=0, high=2 ** 31 - 1, default=0),
+    ParameterSpec('real_time_factor', float, 'simulated seconds per wall second; 0 = as fast '
+                  'as possible', low=0.0, high=1000.0, default=1.0),
+    ParameterSpec('publish_clock', bool, 'publish /clock (rosgraph_msgs/Clock) with the '
+                  'simulation time', default=False, read_only=True),
+    ParameterSpec('clock_rate', float, '/clock messages per simulated second (at most one per '
+                  'batch): every /clock message wakes every node on the simulation clock, so '
+                  'it is kept low; nodes that need finer time read the sample stamps', 'Hz',
+                  1.0, 2000.0, default=20.0, read_only=True),
+    ParameterSpec('reliable', bool, 'reliable QoS on tactile/frames (for recording); default '
+                  'sensor data QoS', default=False, read_only=True),
+    ParameterSpec('batch_size', int, 'samples per TactileFrames message', low=1, high=2000,
+                  default=20, read_only=True),
+    ParameterSpec('frame_id', str, 'frame_id of tactile/frames', default='forte_base_link',
+                  read_only=True),
+    ParameterSpec('timer_period', float, 'wall period of the production timer in real time',
+                  's', 0.001, 0.1, default=0.01, read_only=True),
+    ParameterSpec('cmd_vel_timeout', float, 'the arm stops when no arm/cmd_vel arrived for '
+                  'this long (simulated)', 's', 0.01, 60.0, default=0.5),
+    ParameterSpec('autostart', bool, 'configure and activate at start-up without a lifecycle '
+                  'manager', default=True, read_only=True),
+])
 
 
 class SimNode(ForteLifecycleNode):
@@ -94,7 +97,7 @@ class SimNode(ForteLifecycleNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__('forte_sim', **kwargs)
-        self._declare_parameters()
+        declare_table(self, PARAMETERS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._scene: Scene | None = None
         # transitions may be triggered from another thread than the executor's: they and
@@ -130,11 +133,6 @@ class SimNode(ForteLifecycleNode):
                 self.trigger_activate()
 
     # ------------------------------------------------------------------ parameters
-    def _declare_parameters(self) -> None:
-        for name, (default, description, bounds, read_only) in PARAMETERS.items():
-            self.declare_parameter(name, default,
-                                   parameter_descriptor(description, default, bounds, read_only))
-
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         for parameter in parameters:
             if parameter.name in SCENE_PARAMETERS and getattr(self, '_scene', None) is not None:
