@@ -1,52 +1,29 @@
 """Does the gripper carry the object? Evidence checks of the grasp state machine (no rclpy).
 
-:class:`DropDetector` watches for a held object's load *disappearing* (LIFTING, HOLDING).
-It cannot see an object that never left the table: the lift height the controller knows is
-the integral of the arm velocity it commanded, and when the grip is too weak the fingers
-slide up an object that stays on the table while FORTE's tightenings make every grip signal
-(force, deformation, joint current) rise exactly as in a good grasp. :class:`LiftMonitor`
-judges the lift from three physical facts and what a robot measures:
+:class:`DropDetector` watches for a held object's load *disappearing* (LIFTING, HOLDING). It
+cannot see an object that never left the table: the fingers slide up it while FORTE's
+tightenings make force, deformation and joint current rise as in a good grasp.
+:class:`LiftMonitor` judges the lift from three physical facts (the physics, the thresholds and
+what they were measured on: docs/control.md, "Lift verification"):
 
-1. **A free object is centred by the fingers.** Once the object hangs from the fingers the
-   only horizontal forces on it are the two finger normal forces, so they are equal
-   (Newton's second law with no horizontal acceleration). On the table, the table's
-   friction can hold the object against one finger, up to mu_table x (the part of the
-   weight the table still carries). The tactile pattern therefore changes when the weight
-   transfers: the left and right deformation levels become equal. A grasp that ends with the
-   two fingers loaded unequally is not carrying its object. Equal levels are necessary, not
-   sufficient (an object placed exactly centred stays balanced on the table), hence:
-2. **A carried object stops slipping.** While the arm lifts, a contact that still slips
-   (stick-slip flags of the slip detector, which FORTE answers with a tightening) means
-   the fingers are still moving along the object, not carrying it. The last ``quiet_time``
-   of the lift must pass without a slip flag. A flag while HOLDING (arm stopped) does not
-   count against the lift: with the arm still, only gravity can make an object slip, i.e.
-   the object hangs from the fingers (the drop detector watches what happens next).
+1. **A free object is centred by the fingers.** Hanging, only the two finger normal forces act
+   on it horizontally, so they are equal; on the table, its friction can hold the object
+   against one finger. Rule: the two fingers' levels agree (necessary, not sufficient).
+2. **A carried object stops slipping.** A slip flag in the last ``quiet_time`` of LIFTING means
+   the fingers still move along the object. Flags while HOLDING do not count: with the arm
+   still, only gravity can make the object slip, i.e. it hangs from the fingers.
+3. **A carried object goes down with the fingers; a resting one unloads them.** The set-down
+   probe lifts ``probe_distance`` more, holds and lowers back; the shear index (sum over fingers
+   of distal - root) must not change by more than ``probe_unload``.
 
-3. **A carried object goes down with the fingers; a resting one unloads them.** An object
-   placed exactly centred stays balanced on the table, and fingers can slide along it
-   smoothly (no stick-slip to hear). Its weight is then shared by the table and the
-   fingers' friction, and the tangential (shear) load on the fingers is a friction force,
-   not the weight. The set-down probe tells them apart: the arm lifts ``probe_distance``
-   (2 mm) beyond the lift height, holds, and lowers the same distance. A carried object
-   moves down with the fingers and their tangential load (its weight) does not change; an
-   object the table holds stays where it is, and the fingers' stuck contacts unload by their
-   tangential stiffness x the distance (at most the friction force). The shear pattern of a
-   fin-ray finger is the distal-minus-root difference of its channels (a downward load on the
-   pad raises the distal and lowers the root pressure); the grip (normal force) does not
-   change in a vertical motion, so a change of sum over fingers of (distal - root) of more
-   than ``probe_unload`` during the probe means the table took load back. The absolute
-   shear level is not used: a smooth slide loads the fingers with mu_k x N, just as a carried
-   object of that weight would, and the controller does not know the weight.
+Optionally (``use_wrench``, off by default) the wrist's vertical load must have grown by
+``min_wrench_load`` since the lift began.
 
-Optionally, a wrist force/torque sensor gives the vertical load the arm carries
-(``use_wrench``; off by default): it must have grown by ``min_wrench_load`` since the lift
-began.
-
-The same module answers a second question: when the gripper closed fully without a contact
-flag (the perception's contact is a *rate* of change; a very soft object loads too slowly to
-trip it), did it close on something? Evidence: the joint stopped short of its command
-(blocked), the tactile deformation or the force estimate is clearly above an empty
-gripper's, or the servo current rose above its free-motion level.
+Closing fully without a contact flag (the contact flag is a *rate*; a very soft object loads
+too slowly to trip it), :func:`closed_on_object_evidence` asks whether the gripper closed on
+something: the joint stopped short of its command (blocked), the tactile deformation or the
+force estimate is clearly above an empty gripper's, or the servo current rose above its
+free-motion level.
 """
 from __future__ import annotations
 
