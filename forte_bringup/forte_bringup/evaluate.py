@@ -43,11 +43,15 @@ from forte_bringup.metrics import (
     confusion_json,
     confusion_table,
     force_table,
-    latency_stats,
     latency_table,
     mode_comparison_table,
     result_table,
     summary_json,
+)
+from forte_perception.evaluation.slip_metrics import (
+    CLOSED_LOOP_MAX_LATENCY,
+    latency_stats,
+    match_onsets,
 )
 from forte_perception.slip.params import MODES, RECOMMENDED_MODE
 
@@ -112,13 +116,15 @@ def record_from_result(result: object, task: Task) -> TrialRecord:
 
     Uses the result's ``success``, ``outcome``, ``object_state``, ``slip_true``,
     ``slip_predicted``, ``slip_onset_times`` / ``slip_flag_times`` (for latencies; when
-    present), ``max_true_force``, ``duration`` and ``final_height`` fields.
+    present), ``max_true_force``, ``duration`` and ``final_height`` fields. Latencies: each
+    onset (in time order) against the flags by
+    :func:`~forte_perception.evaluation.slip_metrics.match_onsets`, within
+    ``CLOSED_LOOP_MAX_LATENCY`` and before the next onset.
     """
-    from forte_bringup.metrics import detection_latencies
-
-    onsets = list(_get(result, 'slip_onset_times', []) or [])
+    onsets = sorted(float(t) for t in _get(result, 'slip_onset_times', []) or [])
     flags = list(_get(result, 'slip_flag_times', []) or [])
-    latencies, missed = detection_latencies(onsets, flags) if onsets else ([], 0)
+    latency = match_onsets(onsets, flags, CLOSED_LOOP_MAX_LATENCY, before_next_onset=True)
+    latencies = [float(v) for v in latency[~np.isnan(latency)]]
     outcome = _get(result, 'outcome', '')
     state = _get(result, 'object_state', '')
     at_outcome = _get(result, 'object_state_at_outcome', '') or ''
@@ -129,7 +135,7 @@ def record_from_result(result: object, task: Task) -> TrialRecord:
         object_state=str(getattr(state, 'name', state)),
         slip_true=bool(_get(result, 'slip_true', bool(onsets))),
         slip_predicted=bool(_get(result, 'slip_predicted', bool(flags))),
-        latencies=latencies, missed_onsets=missed,
+        latencies=latencies, missed_onsets=len(onsets) - len(latencies),
         max_true_force=float(_get(result, 'max_true_force', math.nan)),
         duration=float(_get(result, 'duration', math.nan)),
         object_state_at_outcome=str(getattr(at_outcome, 'name', at_outcome)),

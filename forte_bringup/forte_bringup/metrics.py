@@ -9,10 +9,13 @@ performance" (tables/result_table.tex) and its conventions:
   ``xx.x% (successes/trials)``;
 - slip detection judged trial-wise on the FORTE trials: a trial is positive when the
   ground truth has a slip onset during the lift, predicted positive when the detector
-  flagged slip during the lift. Precision is defined as 1.0 when there are no predicted
-  positives (the paper: "correct abstention from false positives"); recall (and hence F1)
-  is 0.0 when there are no true positives to find, which is how the paper's
-  fragile / deformable row reads (1.00 / 1.00 / 0.00 / 0.00).
+  flagged slip during the lift; accuracy / precision / recall / F1 of these trials and the
+  onset-to-flag latencies come from :mod:`forte_perception.evaluation.slip_metrics`, whose
+  convention holds here: an undefined ratio (precision with nothing flagged, recall with no
+  slip to find, F1 when either is undefined) is NaN and prints as ``n/a``. The paper fills
+  these cases in (its fragile / deformable row reads 1.00 / 1.00 / 0.00 / 0.00: precision
+  1 for "correct abstention from false positives", recall 0 without slip); the ``paper``
+  rows print its numbers as published.
 
 And one table the paper does not have: the confusion matrix of the controller's own outcome
 against the simulator's ground-truth object state, per controller, with the number of trials
@@ -23,11 +26,10 @@ sliding 28 mm down the fingers is carried, though not a success, which needs 5 m
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 
-import numpy as np
+from forte_perception.evaluation.slip_metrics import TrialScores, format_value, ratio
 
 #: Category keys (forte_sim.catalogue.CATEGORIES) and the paper's row labels.
 CATEGORY_LABELS = {
@@ -127,7 +129,7 @@ class Rate:
     @property
     def value(self) -> float:
         """Fraction in [0, 1]; NaN when there were no trials."""
-        return self.successes / self.trials if self.trials else float('nan')
+        return ratio(self.successes, self.trials)
 
     def __str__(self) -> str:
         if not self.trials:
@@ -135,62 +137,9 @@ class Rate:
         return f'{100.0 * self.value:.1f}% ({self.successes}/{self.trials})'
 
 
-@dataclass(frozen=True)
-class SlipScores:
-    """Trial-wise confusion counts and scores of the slip detector."""
-
-    true_positive: int
-    false_positive: int
-    true_negative: int
-    false_negative: int
-
-    @property
-    def trials(self) -> int:
-        return self.true_positive + self.false_positive + self.true_negative + self.false_negative
-
-    @property
-    def accuracy(self) -> float:
-        """(TP + TN) / trials; NaN without trials."""
-        if not self.trials:
-            return float('nan')
-        return (self.true_positive + self.true_negative) / self.trials
-
-    @property
-    def precision(self) -> float:
-        """TP / (TP + FP); 1.0 when nothing was flagged (the paper's convention)."""
-        flagged = self.true_positive + self.false_positive
-        return self.true_positive / flagged if flagged else 1.0
-
-    @property
-    def recall(self) -> float:
-        """TP / (TP + FN); 0.0 when there was no slip to find (as the paper's table)."""
-        positives = self.true_positive + self.false_negative
-        return self.true_positive / positives if positives else 0.0
-
-    @property
-    def f1(self) -> float:
-        """Harmonic mean of precision and recall; 0.0 when both are 0."""
-        total = self.precision + self.recall
-        return 2.0 * self.precision * self.recall / total if total else 0.0
-
-    def as_tuple(self) -> tuple[float, float, float, float]:
-        """(accuracy, precision, recall, F1)."""
-        return (self.accuracy, self.precision, self.recall, self.f1)
-
-
-def slip_scores(records: Iterable[TrialRecord]) -> SlipScores:
-    """Trial-wise slip confusion counts of ``records``."""
-    tp = fp = tn = fn = 0
-    for record in records:
-        if record.slip_true and record.slip_predicted:
-            tp += 1
-        elif record.slip_predicted:
-            fp += 1
-        elif record.slip_true:
-            fn += 1
-        else:
-            tn += 1
-    return SlipScores(tp, fp, tn, fn)
+def slip_scores(records: Iterable[TrialRecord]) -> TrialScores:
+    """Trial-wise slip confusion counts and scores of ``records``."""
+    return TrialScores.count((r.slip_true, r.slip_predicted) for r in records)
 
 
 def success_rate(records: Iterable[TrialRecord]) -> Rate:
@@ -199,84 +148,7 @@ def success_rate(records: Iterable[TrialRecord]) -> Rate:
     return Rate(sum(1 for r in records if r.success), len(records))
 
 
-def latency_stats(latencies: Sequence[float], missed: int = 0) -> dict[str, float]:
-    """Distribution of slip detection latencies (onset to first flag).
-
-    Parameters
-    ----------
-    latencies : sequence of float
-        One value per detected onset [s].
-    missed : int
-        Onsets never flagged within the horizon [count].
-
-    Returns
-    -------
-    dict
-        ``count``, ``missed``, ``p50``, ``p90``, ``max``, ``mean`` [s] (NaN when empty)
-        and ``fraction_below_100ms`` of the detected onsets. Percentiles use linear
-        interpolation between order statistics (numpy's default).
-    """
-    values = np.asarray(list(latencies), dtype=float)
-    if values.size and not np.all(np.isfinite(values)):
-        raise ValueError('latencies must be finite')
-    nan = float('nan')
-    return {
-        'count': int(values.size),
-        'missed': int(missed),
-        'p50': float(np.percentile(values, 50)) if values.size else nan,
-        'p90': float(np.percentile(values, 90)) if values.size else nan,
-        'max': float(values.max()) if values.size else nan,
-        'mean': float(values.mean()) if values.size else nan,
-        'fraction_below_100ms': float(np.mean(values < 0.100)) if values.size else nan,
-    }
-
-
-def detection_latencies(
-    onset_times: Sequence[float],
-    flag_times: Sequence[float],
-    horizon: float = 1.0,
-) -> tuple[list[float], int]:
-    """Match each true slip onset to the first slip flag at or after it.
-
-    Parameters
-    ----------
-    onset_times : sequence of float
-        Ground-truth slip onset times [s], any order.
-    flag_times : sequence of float
-        Times at which the detector flagged slip [s], any order.
-    horizon : float
-        A flag later than ``horizon`` after the onset, or at/after the next onset, does
-        not count for it [s].
-
-    Returns
-    -------
-    latencies : list of float
-        Onset-to-flag times of the caught onsets [s].
-    missed : int
-        Onsets without a flag inside their window.
-    """
-    onsets = sorted(float(t) for t in onset_times)
-    flags = np.sort(np.asarray(list(flag_times), dtype=float))
-    latencies: list[float] = []
-    missed = 0
-    for index, onset in enumerate(onsets):
-        next_onset = onsets[index + 1] if index + 1 < len(onsets) else math.inf
-        position = int(np.searchsorted(flags, onset, side='left'))
-        if position < flags.size and flags[position] <= onset + horizon and (
-            flags[position] < next_onset
-        ):
-            latencies.append(float(flags[position] - onset))
-        else:
-            missed += 1
-    return latencies, missed
-
-
 # --- tables --------------------------------------------------------------------------------
-def _fmt(value: float, digits: int = 2) -> str:
-    return 'n/a' if value is None or (isinstance(value, float) and math.isnan(value)) else (
-        f'{value:.{digits}f}')
-
-
 def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     widths = [max(len(str(cell)) for cell in column) for column in zip(header, *rows)]
     def line(cells: Sequence[str]) -> str:
@@ -292,7 +164,7 @@ def summarize(records: Sequence[TrialRecord]) -> dict:
     -------
     dict
         ``{category or 'overall': {'objects': n, 'success': {controller: Rate},
-        'slip': SlipScores}}``, categories in the paper's order (only those present).
+        'slip': TrialScores}}``, categories in the paper's order (only those present).
     """
     summary: dict[str, dict] = {}
     groups = [c for c in CATEGORY_LABELS if any(r.category == c for r in records)]
@@ -322,13 +194,13 @@ def result_table(records: Sequence[TrialRecord], with_paper: bool = True) -> str
         label = CATEGORY_LABELS.get(category, 'Overall' if category == 'overall' else category)
         rows.append([label, str(entry['objects']),
                      *(str(entry['success'][c]) for c in CONTROLLER_LABELS),
-                     *(_fmt(v) for v in entry['slip'].as_tuple())])
+                     *(format_value(v) for v in entry['slip'].as_tuple())])
         paper = PAPER_RESULTS.get(category)
         if with_paper and paper is not None:
             rows.append(['  paper', str(paper['objects']),
                          *(f'{paper[c][2]} ({paper[c][0]}/{paper[c][1]})'
                            for c in CONTROLLER_LABELS),
-                         *(_fmt(v) for v in paper['slip'])])
+                         *(format_value(v) for v in paper['slip'])])
     return _table(header, rows)
 
 
@@ -351,7 +223,7 @@ def mode_comparison_table(records_by_mode: dict[str, Sequence[TrialRecord]]) -> 
         row = [label]
         for summary in summaries.values():
             entry = summary.get(category)
-            row += ([str(entry['success']['FORTE']), _fmt(entry['slip'].precision)]
+            row += ([str(entry['success']['FORTE']), format_value(entry['slip'].precision)]
                     if entry else ['-', '-'])
         rows.append(row)
     return _table(header, rows)
@@ -370,17 +242,17 @@ def force_table(results: dict[str, dict]) -> str:
     for key, label in (('with_history', 'latest frame + 2.5/5/10 s means (24 features)'),
                        ('without_history', 'latest frame only (6 features)')):
         entry = results.get(key, {})
-        rows.append([label, _fmt(entry.get('rmse', float('nan')), 3),
-                     _fmt(entry.get('mae', float('nan')), 3), _fmt(PAPER_FORCE_RMSE[key], 3)])
+        rows.append([label, format_value(entry.get('rmse'), 3),
+                     format_value(entry.get('mae'), 3), format_value(PAPER_FORCE_RMSE[key], 3)])
     return _table(['Force features', 'RMSE [N]', 'MAE [N]', 'paper RMSE [N]'], rows)
 
 
 def latency_table(stats: dict[str, float]) -> str:
     """Slip latency distribution (onset to flag) as a one-row table, in milliseconds."""
     def ms(value: float) -> str:
-        return _fmt(1000.0 * value, 1)
+        return format_value(1000.0 * value, 1)
     row = [str(stats['count']), str(stats['missed']), ms(stats['p50']), ms(stats['p90']),
-           ms(stats['max']), _fmt(100.0 * stats['fraction_below_100ms'], 1),
+           ms(stats['max']), format_value(100.0 * stats['fraction_below_100ms'], 1),
            f'< {1000 * PAPER_SLIP_LATENCY_BOUND:.0f} (typical)']
     return _table(['detected onsets', 'missed', 'p50 [ms]', 'p90 [ms]', 'max [ms]',
                    '% < 100 ms', 'paper [ms]'], [row])
@@ -390,17 +262,11 @@ def summary_json(records: Sequence[TrialRecord]) -> dict:
     """The result table as plain numbers (for the results JSON)."""
     out = {}
     for category, entry in summarize(records).items():
-        scores = entry['slip']
         out[category] = {
             'objects': entry['objects'],
             'success': {c: {'successes': r.successes, 'trials': r.trials, 'rate': r.value}
                         for c, r in entry['success'].items()},
-            'slip': {'true_positive': scores.true_positive,
-                     'false_positive': scores.false_positive,
-                     'true_negative': scores.true_negative,
-                     'false_negative': scores.false_negative,
-                     'accuracy': scores.accuracy, 'precision': scores.precision,
-                     'recall': scores.recall, 'f1': scores.f1},
+            'slip': entry['slip'].to_dict(),
             'paper': PAPER_RESULTS.get(category),
         }
     return out

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from forte_driver.replay.bags import read_bag
+from forte_perception.evaluation.slip_metrics import format_value
 from forte_ros.contract import CHANNEL_NAMES
 
 #: Slip threshold T of the paper [dB^2].
@@ -221,7 +222,7 @@ def outcome_table(rows: Sequence[dict]) -> str:
     The column "agrees" says whether the controller's outcome and the ground truth agree on
     whether the object was carried (:func:`forte_bringup.metrics.carrying_agreement`, as the
     evaluation judges it): ``yes``, ``NO``, or ``-`` where the outcome makes no claim about
-    carrying or the truth cannot judge it (BROKEN, CRUSHED).
+    carrying or the truth cannot judge it (BROKEN, CRUSHED). A missing number prints ``n/a``.
     """
     from forte_bringup.metrics import carrying_agreement
 
@@ -235,13 +236,13 @@ def outcome_table(rows: Sequence[dict]) -> str:
         state = row.get('object_state', '')
         agrees = {True: 'yes', False: 'NO', None: '-'}[carrying_agreement(outcome, state)]
         cells = [row.get('object', ''), row.get('controller', ''), outcome, state,
-                 f'{1000 * height:.1f}', agrees,
-                 f"{1000 * row.get('lift_height', math.nan):.1f}",
-                 f"{row.get('final_force', math.nan):.2f}",
-                 f"{row.get('max_true_force', math.nan):.2f}",
+                 format_value(1000 * height, 1), agrees,
+                 format_value(1000 * row.get('lift_height', math.nan), 1),
+                 format_value(row.get('final_force', math.nan)),
+                 format_value(row.get('max_true_force', math.nan)),
                  str(row.get('slip_events', '')),
-                 f"{math.degrees(row.get('tightening', math.nan)):.2f}",
+                 format_value(math.degrees(row.get('tightening', math.nan))),
                  str(row.get('true_slip_onsets', '')),
-                 f"{row.get('duration', math.nan):.1f}"]
+                 format_value(row.get('duration', math.nan), 1)]
         lines.append('| ' + ' | '.join(cells) + ' |')
     return '\n'.join(lines)

@@ -34,12 +34,14 @@ from forte_bringup.slip_dataset import build_set
 from forte_perception.evaluation.benchmark import MODES, markdown, prepare, report, run_mode
 from forte_perception.evaluation.labels import SPLITS
 from forte_perception.evaluation.slip_metrics import MAX_LATENCY
+from forte_perception.slip.params import RECOMMENDED_MODE
 
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog='slip_benchmark',
                                      description=__doc__.split('\n')[0])
-    parser.add_argument('--mode', default='paper', choices=sorted(MODES))
+    parser.add_argument('--mode', default=RECOMMENDED_MODE, choices=sorted(MODES),
+                        help=f'detector mode (default {RECOMMENDED_MODE!r}, the node\'s)')
     parser.add_argument('--split', nargs='+', default=list(SPLITS), choices=SPLITS)
     parser.add_argument('--families', nargs='+', default=None,
                         help='only these families (default: all)')

@@ -103,6 +103,25 @@ def test_record_from_result_reads_attributes_and_dicts():
     assert not empty.success and not empty.slip_true and np.isnan(empty.duration)
 
 
+def test_record_latencies_follow_the_closed_loop_rule():
+    """Onsets matched within 1 s and before the next onset (slip_metrics' closed-loop rule)."""
+    task = Task('soda_can', 'slippery', 'FORTE', 0, 0)
+
+    def latencies(onsets, flags):
+        record = record_from_result({'slip_onset_times': onsets, 'slip_flag_times': flags},
+                                    task)
+        return record.latencies, record.missed_onsets
+
+    caught, missed = latencies([1.0, 2.0], [1.05, 1.5, 2.2])
+    assert caught == pytest.approx([0.05, 0.2]) and missed == 0
+    # the flag after 1.0 comes after the next onset: it answers 2.0 only
+    caught, missed = latencies([2.0, 1.0], [2.2])           # any order: matched in time order
+    assert caught == pytest.approx([0.2]) and missed == 1
+    assert latencies([1.0], [2.0]) == ([1.0], 0)            # exactly 1 s later: caught
+    assert latencies([1.0], [2.0005]) == ([], 1)            # one sample (0.5 ms) later: missed
+    assert latencies([], [1.0]) == ([], 0)
+
+
 def test_force_cross_validation_on_the_calibration_rig():
     dataset = calibration_dataset(trials_per_indentor=5, hold_seconds=2.0, seed=1,
                                   indentors=['flat_wide', 'sphere'])

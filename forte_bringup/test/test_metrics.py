@@ -9,22 +9,20 @@ import pytest
 from forte_bringup.metrics import (
     PAPER_RESULTS,
     Rate,
-    SlipScores,
     TrialRecord,
     confusion,
     confusion_json,
     confusion_table,
     contradiction_count,
     contradicts_carried,
-    detection_latencies,
     force_table,
-    latency_stats,
     latency_table,
     result_table,
     slip_scores,
     summarize,
     summary_json,
 )
+from forte_perception.evaluation.slip_metrics import TrialScores, latency_stats
 
 
 def record(category='slippery', controller='FORTE', success=True, slip_true=False,
@@ -42,31 +40,14 @@ def test_paper_row_reproduces_from_counts():
     assert str(Rate(0, 0)) == 'n/a' and math.isnan(Rate(0, 0).value)
 
 
-def test_slip_scores_known_answer():
-    # 6 TP, 1 FP, 2 TN, 3 FN
+def test_slip_scores_count_the_records_trial_wise():
+    # 6 TP, 1 FP, 2 TN, 3 FN (the scores of these counts: test_slip_metrics.py)
     records = ([record(slip_true=True, slip_predicted=True)] * 6
                + [record(slip_true=False, slip_predicted=True)]
                + [record()] * 2
                + [record(slip_true=True)] * 3)
-    scores = slip_scores(records)
-    assert (scores.true_positive, scores.false_positive, scores.true_negative,
-            scores.false_negative) == (6, 1, 2, 3)
-    assert scores.accuracy == pytest.approx(8 / 12)
-    assert scores.precision == pytest.approx(6 / 7)
-    assert scores.recall == pytest.approx(6 / 9)
-    p, r = 6 / 7, 6 / 9
-    assert scores.f1 == pytest.approx(2 * p * r / (p + r))
-
-
-def test_slip_conventions_of_the_paper():
-    # no predicted positives: precision 1.0 (correct abstention); no positives: recall 0
-    nothing = SlipScores(0, 0, 10, 0)
-    assert nothing.as_tuple() == (1.0, 1.0, 0.0, 0.0)  # the paper's fragile/deformable row
-    all_missed = SlipScores(0, 0, 5, 5)
-    assert all_missed.precision == 1.0 and all_missed.recall == 0.0 and all_missed.f1 == 0.0
-    assert math.isnan(SlipScores(0, 0, 0, 0).accuracy)
-    # paper's slippery row: recall 0.82 with precision 1.00 -> F1 0.90
-    assert SlipScores(41, 0, 0, 9).f1 == pytest.approx(0.90, abs=0.005)
+    assert slip_scores(records) == TrialScores(true_positive=6, false_positive=1,
+                                               true_negative=2, false_negative=3)
 
 
 def test_summarize_groups_by_category_and_controller():
@@ -93,39 +74,28 @@ def test_summarize_groups_by_category_and_controller():
     assert any('paper' in line and '88.8% (80/90)' in line for line in lines)  # slippery
     assert 'Overall' in table and '95.0% (19/20)' in table
     assert 'paper' not in result_table(records, with_paper=False)
+    # no slip and nothing flagged: precision, recall, F1 undefined (n/a); the paper's row
+    # keeps its own 1.00 / 1.00 / 0.00 / 0.00
+    cells = [[cell.strip() for cell in line.strip('|').split('|')] for line in lines]
+    deformable = cells.index(next(c for c in cells if c[0] == 'Fragile / Deformable'))
+    assert cells[deformable][-4:] == ['1.00', 'n/a', 'n/a', 'n/a']
+    assert cells[deformable + 1][0] == 'paper'
+    assert cells[deformable + 1][-4:] == ['1.00', '1.00', '0.00', '0.00']
     data = summary_json(records)
+    assert data['overall']['slip']['accuracy'] == 1.0
+    assert math.isnan(data['overall']['slip']['precision'])
     assert data['overall']['success']['FORTE'] == {'successes': 19, 'trials': 20,
                                                    'rate': 0.95}
     assert data['slippery']['paper'] == PAPER_RESULTS['slippery']
 
 
-def test_detection_latencies_match_each_onset_to_its_first_flag():
-    onsets = [1.0, 3.0, 5.0, 5.2]
-    flags = [0.5, 1.04, 1.06, 3.09, 5.25, 9.0]
-    latencies, missed = detection_latencies(onsets, flags, horizon=0.5)
-    # 1.0 -> 1.04; 3.0 -> 3.09; 5.0: next flag 5.25 is after the next onset (5.2) -> missed;
-    # 5.2 -> 5.25
-    assert latencies == pytest.approx([0.04, 0.09, 0.05])
-    assert missed == 1
-    assert detection_latencies([2.0], [2.6], horizon=0.5) == ([], 1)
-    assert detection_latencies([2.0], [2.0], horizon=0.5) == ([0.0], 0)
-    assert detection_latencies([], [1.0]) == ([], 0)
-
-
-def test_latency_stats_known_answer():
-    values = np.arange(1, 11) / 100.0  # 10..100 ms
-    stats = latency_stats(values, missed=2)
-    assert stats['count'] == 10 and stats['missed'] == 2
-    assert stats['p50'] == pytest.approx(0.055)
-    assert stats['p90'] == pytest.approx(0.091)
-    assert stats['max'] == pytest.approx(0.10)
-    assert stats['fraction_below_100ms'] == pytest.approx(0.9)
-    empty = latency_stats([])
-    assert empty['count'] == 0 and math.isnan(empty['p50'])
-    with pytest.raises(ValueError):
-        latency_stats([0.1, float('nan')])
-    table = latency_table(stats)
-    assert '55.0' in table and '91.0' in table and '100.0' in table and '< 100' in table
+def test_latency_table_in_milliseconds():
+    table = latency_table(latency_stats(np.arange(1, 11) / 100.0, missed=2))  # 10..100 ms
+    row = [cell.strip() for cell in table.splitlines()[2].strip('|').split('|')]
+    assert row == ['10', '2', '55.0', '91.0', '100.0', '90.0', '< 100 (typical)']
+    empty = [cell.strip() for cell in
+             latency_table(latency_stats([], missed=4)).splitlines()[2].strip('|').split('|')]
+    assert empty == ['0', '4', 'n/a', 'n/a', 'n/a', 'n/a', '< 100 (typical)']
 
 
 def test_force_table_shows_ours_and_paper():

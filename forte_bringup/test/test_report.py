@@ -94,6 +94,14 @@ def test_outcome_table_known_row():
                         '| 2 | 1.76 | 3 | 8.0 |')
 
 
+def test_outcome_table_prints_missing_numbers_as_n_a():
+    table = outcome_table([{'object': 'soda_can', 'controller': 'FORTE', 'outcome': 'FAULT',
+                            'object_state': 'HELD'}])
+    cells = [cell.strip() for cell in table.splitlines()[2].strip('|').split('|')]
+    assert cells == ['soda_can', 'FORTE', 'FAULT', 'HELD', 'n/a', '-', 'n/a', 'n/a', 'n/a', '',
+                     'n/a', '', 'n/a']
+
+
 @pytest.mark.parametrize('outcome, state, height, agrees', [
     ('LIFTED', 'RESTING', 0.0, 'NO'),          # the old controller's claim on a resting can
     ('LIFTED', 'HELD', 0.0024, 'yes'),         # slid down the fingers, but hangs: carried

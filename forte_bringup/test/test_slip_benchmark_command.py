@@ -4,6 +4,7 @@ import json
 from forte_bringup import slip_benchmark
 from forte_bringup.slip_dataset import sim_scene
 from forte_perception.evaluation.scenes import make_scene
+from forte_perception.slip.params import RECOMMENDED_MODE
 
 
 def small_set(*_args, **_kwargs):
@@ -14,7 +15,7 @@ def small_set(*_args, **_kwargs):
 
 def test_the_command_prints_both_splits_and_writes_json(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(slip_benchmark, 'build_set', small_set)
-    code = slip_benchmark.main(['--repeats', '1', '--output', str(tmp_path)])
+    code = slip_benchmark.main(['--mode', 'paper', '--repeats', '1', '--output', str(tmp_path)])
     assert code == 0
     text = capsys.readouterr().out
     assert '### paper mode, tune part' in text and '### paper mode, held-out part' in text
@@ -33,7 +34,11 @@ def test_selections_narrow_the_set(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(slip_benchmark, 'build_set', small_set)
     assert slip_benchmark.main(['--repeats', '1', '--output', str(tmp_path), '--split',
                                 'held_out', '--signal-only']) == 0
-    document = json.loads((tmp_path / 'paper.json').read_text())
+    document = json.loads((tmp_path / 'robust.json').read_text())  # the default mode
     assert list(document['results']) == ['held_out']
     assert document['config']['scenes'] == 1
     assert slip_benchmark.main(['--output', str(tmp_path), '--families', 'ramp']) == 2
+
+
+def test_the_default_mode_is_the_perception_nodes():
+    assert slip_benchmark._parser().parse_args([]).mode == RECOMMENDED_MODE == 'robust'

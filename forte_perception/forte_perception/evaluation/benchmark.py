@@ -32,6 +32,7 @@ from forte_perception.evaluation.labels import SPLITS, SlipScene
 from forte_perception.evaluation.slip_metrics import (
     MAX_LATENCY,
     SceneOutcome,
+    format_value,
     scene_outcome,
     summarise,
 )
@@ -208,14 +209,6 @@ def report(outcomes: list[SceneOutcome], cpu: dict) -> dict:
     return out
 
 
-def _fmt(value, digits: int = 2) -> str:
-    if value is None or (isinstance(value, float) and math.isnan(value)):
-        return '-'
-    if isinstance(value, int):
-        return str(value)
-    return f'{value:.{digits}f}'
-
-
 _COLUMNS = (('scenes', 0), ('events', 0), ('detected', 0), ('recall', 2), ('runs', 0),
             ('false_runs', 0), ('precision', 2), ('f1', 2), ('latency_p50_ms', 0),
             ('latency_p90_ms', 0), ('holding_min', 1), ('false_per_min_holding', 1),
@@ -226,7 +219,8 @@ _HEADER = ('| family | scenes | events | detected | recall | flag runs | false |
 
 
 def markdown(results: dict, mode: str) -> str:
-    """The tables of :func:`report` as markdown, one section per split."""
+    """The tables of :func:`report` as markdown, one section per split (``n/a``: undefined,
+    :func:`~forte_perception.evaluation.slip_metrics.format_value`)."""
     lines = []
     for split, part in results.items():
         lines += [f'### {mode} mode, {split.replace("_", "-")} part', '', _HEADER,
@@ -234,13 +228,14 @@ def markdown(results: dict, mode: str) -> str:
         rows = list(part['families'].items()) + [(f'**{k}**', v)
                                                   for k, v in part['groups'].items()]
         for name, m in rows:
-            lines.append(f'| {name} | ' + ' | '.join(_fmt(m.get(c), d) for c, d in _COLUMNS)
-                         + ' |')
+            cells = (format_value(m.get(column), digits) for column, digits in _COLUMNS)
+            lines.append(f'| {name} | ' + ' | '.join(cells) + ' |')
         lines += ['', '| events by kind | events | detected | recall | latency p50 [ms] '
                   '| p90 [ms] |', '|---|---|---|---|---|---|']
         for name, m in part['kinds'].items():
             lines.append(f'| {name} | {m["events"]} | {m["detected"]} | '
-                         f'{_fmt(m["recall"])} | {_fmt(m["latency_p50_ms"], 0)} | '
-                         f'{_fmt(m["latency_p90_ms"], 0)} |')
+                         f'{format_value(m["recall"])} | '
+                         f'{format_value(m["latency_p50_ms"], 0)} | '
+                         f'{format_value(m["latency_p90_ms"], 0)} |')
         lines.append('')
     return '\n'.join(lines)

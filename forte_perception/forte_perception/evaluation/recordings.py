@@ -13,11 +13,13 @@ Labelled recording: one ``.npz`` (no pickle) with
 
 Each trial runs through a fresh slip detector. Trial-wise (as in the paper): a trial is
 positive when it has at least one onset, predicted positive when any detector update in it
-flags slip. Accuracy, precision (1.0 when nothing is predicted positive), recall (1.0 when
-there is no positive trial) and F1. Per onset: the first flag at or after the onset and
-before the next onset, within ``max_latency``, gives the onset-to-flag latency; otherwise the
-onset is missed. Flag runs (consecutive flagged updates) that start outside every
-``[onset, onset + max_latency]`` window are false alarms.
+flags slip; accuracy, precision, recall and F1 of these trials
+(:class:`~forte_perception.evaluation.slip_metrics.TrialScores`: NaN where undefined, e.g.
+precision when nothing was flagged). Per onset
+(:func:`~forte_perception.evaluation.slip_metrics.match_onsets`, next-onset cut): the first
+flag at or after the onset and before the next onset, within ``max_latency``, gives the
+onset-to-flag latency; otherwise the onset is missed. Flag runs (consecutive flagged
+updates) that start outside every ``[onset, onset + max_latency]`` window are false alarms.
 """
 from __future__ import annotations
 
@@ -26,11 +28,17 @@ from pathlib import Path
 
 import numpy as np
 
+from forte_perception.evaluation.slip_metrics import (
+    MAX_LATENCY,
+    TrialScores,
+    flag_runs,
+    match_onsets,
+    outside_windows,
+)
 from forte_perception.median import running_median
 from forte_perception.slip.detector import SlipParams, slip_features
 
-__all__ = ['LabelledRecording', 'evaluate_slip', 'load_labelled', 'save_labelled',
-           'trial_metrics']
+__all__ = ['LabelledRecording', 'evaluate_slip', 'load_labelled', 'save_labelled']
 
 
 @dataclass
@@ -82,17 +90,6 @@ def load_labelled(path: str | Path) -> LabelledRecording:
     return rec
 
 
-def trial_metrics(tp: int, fp: int, fn: int, tn: int) -> dict[str, float]:
-    """Accuracy, precision, recall, F1 from trial counts (conventions in the module doc)."""
-    total = tp + fp + fn + tn
-    accuracy = (tp + tn) / total if total else float('nan')
-    precision = tp / (tp + fp) if tp + fp else 1.0
-    recall = tp / (tp + fn) if tp + fn else 1.0
-    f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0
-    return {'tp': tp, 'fp': fp, 'fn': fn, 'tn': tn, 'accuracy': accuracy,
-            'precision': precision, 'recall': recall, 'f1': f1}
-
-
 def _trials(rec: LabelledRecording) -> list[tuple[int, int]]:
     n = rec.frames.shape[0]
     if rec.trial is None:
@@ -102,9 +99,9 @@ def _trials(rec: LabelledRecording) -> list[tuple[int, int]]:
 
 
 def evaluate_slip(recordings: list[LabelledRecording], params: SlipParams | None = None,
-                  median_window: int = 11, max_latency: float = 0.5,
+                  median_window: int = 11, max_latency: float = MAX_LATENCY,
                   skip: float = 0.0) -> dict:
-    """Trial-wise confusion counts and metrics, per-onset latencies, false alarms.
+    """Trial-wise confusion counts and scores, per-onset latencies, false alarms.
 
     Parameters
     ----------
@@ -113,7 +110,7 @@ def evaluate_slip(recordings: list[LabelledRecording], params: SlipParams | None
     median_window : int
         Median filter applied to unfiltered recordings [samples].
     max_latency : float
-        Longest onset-to-flag delay that counts as a detection [s].
+        Longest onset-to-flag delay that counts as a detection [s]; rounded to samples.
     skip : float
         Ignore flags in the first ``skip`` seconds of every trial [s] (in addition to the
         recording's ``mask``).
@@ -121,17 +118,19 @@ def evaluate_slip(recordings: list[LabelledRecording], params: SlipParams | None
     Returns
     -------
     dict
-        ``trials`` (metrics dict), ``latencies_s`` (list), ``missed_onsets``,
+        ``trials`` (:class:`~forte_perception.evaluation.slip_metrics.TrialScores`),
+        ``latencies_s`` (list, one per caught onset [s]), ``missed_onsets``,
         ``false_alarms``, ``per_trial`` (list of dicts).
     """
     params = params or SlipParams()
-    tp = fp = fn = tn = 0
+    truth_and_flag: list[tuple[bool, bool]] = []
     latencies: list[float] = []
     missed = false_alarms = 0
     per_trial = []
     for rec in recordings:
         fs = rec.fs
         frames = rec.frames if rec.filtered else running_median(rec.frames, median_window)
+        window = int(round(max_latency * fs))
         for a, b in _trials(rec):
             onsets = np.sort(rec.onsets[(rec.onsets >= a) & (rec.onsets < b)]) - a
             res = slip_features(frames[a:b], fs=fs, params=params)
@@ -140,32 +139,18 @@ def evaluate_slip(recordings: list[LabelledRecording], params: SlipParams | None
             if rec.mask is not None:
                 keep &= rec.mask[a + flags]
             flags = flags[keep]
-            positive, predicted = onsets.size > 0, flags.size > 0
-            tp += positive and predicted
-            fp += (not positive) and predicted
-            fn += positive and not predicted
-            tn += (not positive) and not predicted
-            window = int(round(max_latency * fs))
-            trial_lat = []
-            for i, onset in enumerate(onsets):
-                stop = onsets[i + 1] if i + 1 < onsets.size else b - a
-                hit = flags[(flags >= onset) & (flags < min(stop, onset + window + 1))]
-                if hit.size:
-                    trial_lat.append(float(hit[0] - onset) / fs)
-                else:
-                    missed += 1
-            latencies.extend(trial_lat)
-            # flag runs: consecutive updates (one hop apart)
-            run_starts = flags[np.concatenate([[True], np.diff(flags) > params.hop])] \
-                if flags.size else flags
-            alarms = 0
-            for s in run_starts:
-                if not np.any((s >= onsets) & (s <= onsets + window)):
-                    alarms += 1
+            truth_and_flag.append((onsets.size > 0, flags.size > 0))
+            latency = match_onsets(onsets, flags, window, before_next_onset=True)
+            trial_latencies = [float(v) / fs for v in latency[~np.isnan(latency)]]
+            missed += latency.size - len(trial_latencies)
+            latencies.extend(trial_latencies)
+            run_starts = flag_runs(flags, params.hop)[:, 0]
+            alarms = int(outside_windows(run_starts, run_starts,
+                                         np.stack([onsets, onsets + window], axis=1)).sum())
             false_alarms += alarms
             per_trial.append({'recording': rec.name, 'start': a, 'stop': b,
                               'onsets': int(onsets.size), 'flagged_updates': int(flags.size),
-                              'latencies_s': trial_lat, 'false_alarms': alarms})
-    return {'trials': trial_metrics(int(tp), int(fp), int(fn), int(tn)),
-            'latencies_s': latencies, 'missed_onsets': missed, 'false_alarms': false_alarms,
-            'per_trial': per_trial}
+                              'latencies_s': trial_latencies, 'false_alarms': alarms})
+    return {'trials': TrialScores.count(truth_and_flag),
+            'latencies_s': latencies, 'missed_onsets': int(missed),
+            'false_alarms': false_alarms, 'per_trial': per_trial}

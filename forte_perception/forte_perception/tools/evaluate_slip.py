@@ -6,7 +6,8 @@ Example::
 
 Recording format: see :mod:`forte_perception.evaluation.recordings` (``frames``, ``fs``,
 ``onsets``, optional ``trial``, ``filtered`` and ``mask`` of the rows where flags count).
-Prints the trial-wise TP/FP/FN/TN, accuracy, precision, recall and F1 (as in the paper), the
+Prints the trial-wise TP/FP/FN/TN, accuracy, precision, recall and F1 (as in the paper;
+``n/a`` where undefined, :mod:`forte_perception.evaluation.slip_metrics`), the
 onset-to-flag latency distribution, missed onsets and false alarms. The detector mode
 (``--mode``, default the perception node's) and every slip detector parameter can be
 overridden.
@@ -18,9 +19,8 @@ import json
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from forte_perception.evaluation.recordings import evaluate_slip, load_labelled
+from forte_perception.evaluation.slip_metrics import MAX_LATENCY, format_value, latency_stats
 from forte_perception.slip.detector import SlipParams
 from forte_perception.slip.params import MODES
 
@@ -30,7 +30,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog='forte_evaluate_slip', description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('recordings', nargs='+', help='labelled recording .npz files')
-    parser.add_argument('--max-latency', type=float, default=0.5,
+    parser.add_argument('--max-latency', type=float, default=MAX_LATENCY,
                         help='longest onset-to-flag delay counted as a detection [s]')
     parser.add_argument('--skip', type=float, default=0.0,
                         help='ignore flags in the first SKIP seconds of every trial [s]')
@@ -58,18 +58,21 @@ def main(argv: list[str] | None = None) -> int:
         print(f'forte_evaluate_slip: {exc}', file=sys.stderr)
         return 2
     result = evaluate_slip(recordings, params, args.median_window, args.max_latency, args.skip)
-    m = result['trials']
-    print(f'trials: {m["tp"] + m["fp"] + m["fn"] + m["tn"]}  TP {m["tp"]}  FP {m["fp"]}  '
-          f'FN {m["fn"]}  TN {m["tn"]}')
-    print(f'accuracy {m["accuracy"]:.3f}  precision {m["precision"]:.3f}  '
-          f'recall {m["recall"]:.3f}  F1 {m["f1"]:.3f}')
-    lat = np.asarray(result['latencies_s']) * 1e3
-    if lat.size:
-        print(f'onset-to-flag latency [ms]: median {np.median(lat):.1f}, p90 '
-              f'{np.percentile(lat, 90):.1f}, max {lat.max():.1f} ({lat.size} onsets detected)')
+    scores = result['trials']
+    print(f'trials: {scores.trials}  TP {scores.true_positive}  FP {scores.false_positive}  '
+          f'FN {scores.false_negative}  TN {scores.true_negative}')
+    print(f'accuracy {format_value(scores.accuracy, 3)}  '
+          f'precision {format_value(scores.precision, 3)}  '
+          f'recall {format_value(scores.recall, 3)}  F1 {format_value(scores.f1, 3)}')
+    stats = latency_stats(result['latencies_s'], result['missed_onsets'])
+    if stats['count']:
+        print(f'onset-to-flag latency [ms]: median {1e3 * stats["p50"]:.1f}, p90 '
+              f'{1e3 * stats["p90"]:.1f}, max {1e3 * stats["max"]:.1f} '
+              f'({stats["count"]} onsets detected)')
     print(f'missed onsets {result["missed_onsets"]}, false alarms {result["false_alarms"]}')
     if args.report:
-        Path(args.report).write_text(json.dumps(result, indent=2))
+        Path(args.report).write_text(json.dumps(dict(result, trials=scores.to_dict()),
+                                                indent=2))
     return 0
 
 

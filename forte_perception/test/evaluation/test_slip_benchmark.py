@@ -56,7 +56,7 @@ def test_run_mode_scores_every_scene_and_times_every_split():
     assert tune['kinds']['signal stick_slip']['events'] == 3
     text = markdown(results, 'paper')
     assert '### paper mode, tune part' in text and '### paper mode, held-out part' in text
-    assert '| quiet_above_lsb | 1 | 0 | 0 | - |' in text
+    assert '| quiet_above_lsb | 1 | 0 | 0 | n/a |' in text   # no event: recall undefined
 
 
 def test_a_mode_is_any_function_of_the_sensor_input():

@@ -1,12 +1,25 @@
-"""Event-level slip metrics (forte_perception.evaluation.slip_metrics): known answers on hand-built
-flags and labels, from the definitions of issue 14."""
+"""The slip metrics (forte_perception.evaluation.slip_metrics): known answers on hand-built
+onsets, flags and labels, from the definitions (the module docstring, issue 14, the paper)."""
 import math
 
 import numpy as np
 import pytest
 
 from forte_perception.evaluation.labels import FINGER_BOTH, SlipScene
-from forte_perception.evaluation.slip_metrics import flag_runs, scene_outcome, summarise
+from forte_perception.evaluation.slip_metrics import (
+    CLOSED_LOOP_MAX_LATENCY,
+    MAX_LATENCY,
+    TrialScores,
+    f1_score,
+    flag_runs,
+    format_value,
+    latency_stats,
+    match_onsets,
+    outside_windows,
+    ratio,
+    scene_outcome,
+    summarise,
+)
 
 FS = 2000.0
 
@@ -93,6 +106,7 @@ def test_latency_percentiles_interpolate_linearly():
 
 
 def test_conventions_without_runs_or_without_events():
+    # no flag run: precision undefined; recall 0 of 1 event is defined, so F1 is 0
     silent = summarise([scene_outcome(scene(), np.array([], np.int64), hop=4)])
     assert math.isnan(silent['precision']) and silent['recall'] == 0.0
     assert silent['f1'] == 0.0 and math.isnan(silent['latency_p50_ms'])
@@ -111,3 +125,142 @@ def test_event_filter_counts_only_the_chosen_events():
     assert (m['events'], m['detected']) == (1, 1)
     assert m['latency_p50_ms'] == pytest.approx(150.0)
     assert 'precision' not in m
+
+
+# --- the empty cases ---------------------------------------------------------------------------
+def test_undefined_ratios_are_nan_and_print_as_n_a():
+    assert ratio(3, 4) == 0.75 and math.isnan(ratio(0, 0)) and math.isnan(ratio(2, 0))
+    assert f1_score(0.5, 1.0) == pytest.approx(2 / 3)
+    assert f1_score(0.0, 0.0) == 0.0                      # both defined, both 0
+    # nothing to find: undefined, whatever was flagged
+    assert math.isnan(f1_score(1.0, math.nan)) and math.isnan(f1_score(0.0, math.nan))
+    # something to find, nothing found (nothing flagged: precision undefined): F1 is 0
+    assert f1_score(math.nan, 0.0) == 0.0
+    assert format_value(math.nan) == 'n/a' and format_value(None) == 'n/a'
+    assert format_value(float('nan'), 1) == 'n/a'
+    assert format_value(0.8) == '0.80' and format_value(12.34, 1) == '12.3'
+    assert format_value(3, 0) == '3' and format_value(0.0) == '0.00'
+
+
+# --- trial-wise scores ---------------------------------------------------------------------------
+def test_trial_scores_known_answer():
+    # 6 TP, 1 FP, 2 TN, 3 FN
+    pairs = [(True, True)] * 6 + [(False, True)] + [(False, False)] * 2 + [(True, False)] * 3
+    scores = TrialScores.count(pairs)
+    assert scores == TrialScores(true_positive=6, false_positive=1, true_negative=2,
+                                 false_negative=3)
+    assert scores.trials == 12
+    assert scores.accuracy == pytest.approx(8 / 12)
+    assert scores.precision == pytest.approx(6 / 7)
+    assert scores.recall == pytest.approx(6 / 9)
+    p, r = 6 / 7, 6 / 9
+    assert scores.f1 == pytest.approx(2 * p * r / (p + r))
+    assert scores.as_tuple() == (scores.accuracy, scores.precision, scores.recall, scores.f1)
+    assert scores.to_dict() == {'true_positive': 6, 'false_positive': 1, 'true_negative': 2,
+                                'false_negative': 3, 'accuracy': scores.accuracy,
+                                'precision': scores.precision, 'recall': scores.recall,
+                                'f1': scores.f1}
+    # 8 TP, 2 FN, 5 TN: nothing false flagged
+    scores = TrialScores(8, 0, 5, 2)
+    assert scores.accuracy == 13 / 15 and scores.precision == 1.0 and scores.recall == 0.8
+    assert scores.f1 == pytest.approx(2 * 0.8 / 1.8)
+    # the paper's slippery row: recall 0.82 with precision 1.00 -> F1 0.90
+    assert TrialScores(41, 0, 0, 9).f1 == pytest.approx(0.90, abs=0.005)
+
+
+def test_trial_scores_empty_cases_are_nan():
+    # no slip and nothing flagged (the paper prints 1.00 / 1.00 / 0.00 / 0.00 here)
+    nothing = TrialScores(0, 0, 10, 0)
+    assert nothing.accuracy == 1.0
+    assert all(math.isnan(v) for v in nothing.as_tuple()[1:])
+    # every slip missed, nothing flagged: precision undefined, recall 0, F1 0
+    all_missed = TrialScores(0, 0, 5, 5)
+    assert math.isnan(all_missed.precision) and all_missed.recall == 0.0
+    assert all_missed.f1 == 0.0 and all_missed.accuracy == 0.5
+    # only false flags, no slip: precision 0, recall undefined
+    false_only = TrialScores(0, 3, 1, 0)
+    assert false_only.precision == 0.0 and math.isnan(false_only.recall)
+    assert math.isnan(false_only.f1)
+    # flags and slips, none matching: both 0 and defined, F1 0
+    assert TrialScores(0, 3, 0, 2).f1 == 0.0
+    assert math.isnan(TrialScores(0, 0, 0, 0).accuracy)
+    assert [format_value(v) for v in nothing.as_tuple()] == ['1.00', 'n/a', 'n/a', 'n/a']
+
+
+# --- onset matching ------------------------------------------------------------------------------
+def test_match_onsets_under_each_callers_rule():
+    onsets, flags = [1.0, 2.0], [1.05, 1.5, 2.2]
+    # closed loop: 1 s, before the next onset: 1.0 -> 1.05, 2.0 -> 2.2
+    closed = match_onsets(onsets, flags, CLOSED_LOOP_MAX_LATENCY, before_next_onset=True)
+    np.testing.assert_allclose(closed, [0.05, 0.2])
+    # slip set's rule (0.5 s, no next-onset cut): the same here
+    np.testing.assert_allclose(match_onsets(onsets, flags, MAX_LATENCY, False), [0.05, 0.2])
+    # 0.1 s: 2.2 is 0.2 s after the second onset, too late
+    short = match_onsets(onsets, flags, 0.1, before_next_onset=False)
+    assert short[0] == pytest.approx(0.05) and math.isnan(short[1])
+
+
+def test_the_next_onset_closes_an_onsets_window_only_when_asked():
+    onsets, flags = [1.0, 2.0], [2.2]  # the first flag after 1.0 comes after the next onset
+    cut = match_onsets(onsets, flags, 1.5, before_next_onset=True)
+    assert math.isnan(cut[0]) and cut[1] == pytest.approx(0.2)
+    np.testing.assert_allclose(match_onsets(onsets, flags, 1.5, False), [1.2, 0.2])
+    # a flag exactly at the next onset belongs to that onset
+    at_next = match_onsets(onsets, [2.0], 1.5, before_next_onset=True)
+    assert math.isnan(at_next[0]) and at_next[1] == 0.0
+
+
+def test_match_onsets_known_answers_in_seconds():
+    onsets = [1.0, 3.0, 5.0, 5.2]
+    flags = [0.5, 1.04, 1.06, 3.09, 5.25, 9.0]
+    latency = match_onsets(onsets, flags, 0.5, before_next_onset=True)
+    # 1.0 -> 1.04; 3.0 -> 3.09; 5.0: its first flag 5.25 is after the next onset (5.2) ->
+    # missed; 5.2 -> 5.25
+    np.testing.assert_allclose(latency, [0.04, 0.09, math.nan, 0.05])
+    assert math.isnan(match_onsets([2.0], [2.6], 0.5, True)[0])     # later than 0.5 s
+    assert match_onsets([2.0], [2.0], 0.5, True)[0] == 0.0          # a flag at the onset
+    assert match_onsets([], [1.0], 0.5, True).shape == (0,)
+    assert np.isnan(match_onsets([1.0, 2.0], [], 0.5, True)).all()  # no flag: all missed
+    # any order in, the onsets' order out
+    np.testing.assert_allclose(match_onsets([5.2, 1.0], flags, 0.5, True), [0.05, 0.04])
+    # the same onset twice: the first one's window closes at once (at the second)
+    twice = match_onsets([1.0, 1.0], [1.04], 0.5, True)
+    assert np.isnan(twice).sum() == 1 and np.nanmax(twice) == pytest.approx(0.04)
+
+
+def test_max_latency_is_inclusive_to_the_sample():
+    window = 1000                                          # 0.5 s at 2 kHz
+    for before_next_onset in (True, False):
+        edge = match_onsets(np.array([2000]), np.array([3000]), window, before_next_onset)
+        late = match_onsets(np.array([2000]), np.array([3001]), window, before_next_onset)
+        assert edge[0] == 1000 and math.isnan(late[0])
+    # in seconds (closed loop, 0.5 ms samples): a flag at onset + 1 s counts, one sample on not
+    assert match_onsets([1.0], [2.0], CLOSED_LOOP_MAX_LATENCY, True)[0] == 1.0
+    assert math.isnan(match_onsets([1.0], [2.0005], CLOSED_LOOP_MAX_LATENCY, True)[0])
+
+
+def test_outside_windows_known_answer():
+    first = np.array([0, 10, 25, 40])
+    last = np.array([5, 12, 30, 41])
+    windows = np.array([[8, 10], [28, 35]])
+    # [0, 5] misses both; [10, 12] touches 10; [25, 30] overlaps 28; [40, 41] misses both
+    np.testing.assert_array_equal(outside_windows(first, last, windows),
+                                  [True, False, False, True])
+    assert outside_windows(first, last, np.zeros((0, 2), np.int64)).all()
+
+
+def test_latency_stats_known_answer():
+    values = np.arange(1, 11) / 100.0  # 10..100 ms
+    stats = latency_stats(values, missed=2)
+    assert stats['count'] == 10 and stats['missed'] == 2
+    assert stats['p50'] == pytest.approx(0.055)
+    assert stats['p90'] == pytest.approx(0.091)
+    assert stats['max'] == pytest.approx(0.10)
+    assert stats['mean'] == pytest.approx(0.055)
+    assert stats['fraction_below_100ms'] == pytest.approx(0.9)
+    empty = latency_stats([], missed=3)
+    assert empty['count'] == 0 and empty['missed'] == 3
+    assert all(math.isnan(empty[key])
+               for key in ('p50', 'p90', 'max', 'mean', 'fraction_below_100ms'))
+    with pytest.raises(ValueError):
+        latency_stats([0.1, float('nan')])
