@@ -68,6 +68,10 @@ class SimulatedXM430:
         """True: the obstacle stops motion toward larger positions; False: smaller."""
         self.responding = True
         """False: the servo ignores the bus (unplugged cable, no power to its logic)."""
+        self.externally_driven = False
+        """True: position, velocity and current are set by :meth:`drive` (a coupled simulation
+        such as the bench twin's scene moves the horn); :meth:`step` then only runs the
+        thermal and error model."""
         self._saturated_time = 0.0
         self._latched_errors = 0
         self._start_time = time.monotonic()
@@ -194,9 +198,31 @@ class SimulatedXM430:
         self._publish_state()
 
     # -- physics ---------------------------------------------------------------------
+    def drive(self, position: float, velocity: float, current: float) -> None:
+        """Set the physical state from a coupled simulation (:attr:`externally_driven`).
+
+        Parameters
+        ----------
+        position : float
+            Horn position [pulse].
+        velocity : float
+            Horn velocity [pulse/s].
+        current : float
+            Motor current [2.69 mA units], signed along the position axis; clipped to what
+            the servo can drive.
+        """
+        self.position = float(position)
+        self.velocity = float(velocity)
+        self.current = max(-PHYSICAL_CURRENT_MAX_UNITS, min(PHYSICAL_CURRENT_MAX_UNITS,
+                                                            float(current)))
+        self._publish_state()
+
     def step(self, dt: float) -> None:
         """Advance the motion, current and temperature model by ``dt`` seconds."""
         if dt <= 0.0:
+            return
+        if self.externally_driven:
+            self._step_thermal_and_errors(dt)
             return
         mode = self.get(ct.OPERATING_MODE)
         velocity = 0.0
@@ -235,6 +261,11 @@ class SimulatedXM430:
                 current = direction * min(FREE_MOTION_CURRENT_UNITS, current_cap)
         self.velocity = velocity
         self.current = current
+        self._step_thermal_and_errors(dt)
+
+    def _step_thermal_and_errors(self, dt: float) -> None:
+        """Temperature, overload timing and latched hardware errors over ``dt`` seconds."""
+        current = self.current
         amperes = current * 2.69e-3
         steady = AMBIENT_TEMPERATURE_C + HEATING_C_PER_A2 * amperes * amperes
         self.temperature += (steady - self.temperature) * min(1.0, dt / THERMAL_TIME_CONSTANT_S)
