@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 import time
 
-import dynamixel_sdk.port_handler
 import numpy as np
 import pytest
 from serial_host import Host
@@ -19,15 +18,6 @@ from forte_driver.serial.protocol import Command
 from forte_ros.contract import COUNTS_PER_FULL_SCALE, SAMPLE_PERIOD
 from forte_sim import make_scene
 from forte_sim.bench_devices.bench_twin import BenchTwin
-
-#: The twin's servos answer from a Python thread of this process, beside the scene
-#: (docs: forte_sim/test/driver/conftest.py); a slow USB adapter's allowance [ms].
-LATENCY_MS = 64
-
-
-@pytest.fixture(autouse=True)
-def slow_peer_latency(monkeypatch):
-    monkeypatch.setattr(dynamixel_sdk.port_handler, 'LATENCY_TIMER', LATENCY_MS)
 
 
 @pytest.fixture

@@ -1,4 +1,5 @@
-"""Fixtures shared by the Dynamixel tests.
+"""Fixtures shared by the tests that talk to the simulated servos (bench devices, the bench
+twin, the driver on the bench).
 
 The simulated servo answers from a Python process on a shared 2-core machine, so its
 status packets can take longer than a servo's silicon. dynamixel-sdk derives every packet
