@@ -221,6 +221,13 @@ def test_deactivate_pauses_and_activate_resumes_the_stream(harness_factory):
     assert np.diff(stamps)[paused - 1] > 0.4
 
 
+def _quiet_for(harness: Harness, seconds: float) -> bool:
+    """True when no frame and no truth message arrived for ``seconds``."""
+    counts = (len(harness.frames), len(harness.truth))
+    time.sleep(seconds)
+    return counts == (len(harness.frames), len(harness.truth))
+
+
 def test_a_new_scene_after_cleanup_takes_the_new_object(harness_factory):
     harness = harness_factory(scene='grasp', object='apple', seed=4, reliable=True)
     assert harness.wait(lambda: harness.truth)
@@ -230,6 +237,9 @@ def test_a_new_scene_after_cleanup_takes_the_new_object(harness_factory):
     results = harness.node.set_parameters([Parameter('object', value='soda_can'),
                                            Parameter('seed', value=13)])
     assert all(result.successful for result in results)
+    # messages the old scene published before deactivate may still be in flight on a loaded
+    # machine: count from when none has arrived for 0.5 s
+    assert harness.wait(lambda: _quiet_for(harness, 0.5))
     truths, frames = len(harness.truth), len(harness.frames)
     assert harness.node.trigger_configure() == TransitionCallbackReturn.SUCCESS
     assert harness.node.trigger_activate() == TransitionCallbackReturn.SUCCESS
