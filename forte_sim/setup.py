@@ -35,6 +35,7 @@ setup(
     entry_points={
         'console_scripts': [
             'sim_node = forte_sim.ros.sim_node:main',
+            'bench_twin_node = forte_sim.ros.bench_twin_node:main',
             'forte_emulated_sensor = forte_sim.bench_devices.emulated_sensor:main',
             'forte_simulated_servo = forte_sim.bench_devices.simulated_servo:main',
             'forte_sim_dataset = forte_sim.dataset_tool:main',

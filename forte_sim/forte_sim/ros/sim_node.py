@@ -47,6 +47,7 @@ from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameters import declare_table
 from forte_ros.qos import COMMANDS, DIAGNOSTICS, GROUND_TRUTH, SENSOR_FRAMES, reliable
 from forte_sim import SCENE_NAMES, Scene, make_scene
+from forte_sim.ros.ground_truth import ground_truth_message
 
 LEFT_JOINT = 'forte_left_finger_joint'
 RIGHT_JOINT = 'forte_right_finger_joint'
@@ -338,23 +339,9 @@ class SimNode(ForteLifecycleNode):
         joints.velocity = [scene.joint_velocity, scene.joint_velocity]
         joints.effort = list(scene.joint_effort)
         self._joint_publisher.publish(joints)
-        latest = truth.latest()
-        ground = SimGroundTruth()
-        ground.header.stamp = last_stamp
-        ground.header.frame_id = self.get_parameter('frame_id').value
-        ground.scene = scene.name
-        ground.object_name = self.get_parameter('object').value
-        ground.trial = scene.trial
-        ground.finger_force = list(latest['finger_force'])
-        ground.load_cell_force = latest['load_cell_force']
-        ground.slip_type = latest['slip_type']
-        ground.slip_onsets = latest['slip_onsets']
-        ground.object_state = latest['object_state']
-        ground.lift_height = latest['lift_height']
-        ground.object_height = latest['object_height']
-        ground.object_slip = latest['object_slip']
-        ground.object_rotation = latest['object_rotation']
-        self._truth_publisher.publish(ground)
+        self._truth_publisher.publish(ground_truth_message(
+            truth, scene, self.get_parameter('object').value, last_stamp,
+            self.get_parameter('frame_id').value))
         if self._clock_publisher is not None:
             self._publish_clock(first, scene.sample_index)
 

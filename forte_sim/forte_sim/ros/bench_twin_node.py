@@ -1,0 +1,127 @@
+"""The bench twin as a process: both bench devices on ptys, one scene, the arm on ROS.
+
+Thin ROS shell over :class:`forte_sim.bench_devices.bench_twin.BenchTwin`: the emulated
+sensor board appears at ``sensor_link`` and the simulated XM430 pair at ``servo_link``
+(symlinks to the ptys, what ``hardware.launch.py``'s ``sensor_port`` and ``gripper_port``
+open), so the real serial sensor and gripper driver nodes talk to them exactly as to the
+devices on a robot. The node itself stands in only for what cannot exist on the bench, the
+robot arm:
+
+* subscribes ``arm/cmd_vel`` (geometry_msgs/TwistStamped, ``twist.linear.z`` [m/s]: the
+  arm lifts vertically); the arm stops when no command arrived for ``cmd_vel_timeout`` s
+  (as MoveIt Servo stops on a command timeout);
+* publishes ``sim/ground_truth`` (forte_msgs/SimGroundTruth, evaluation only) at
+  ``truth_rate``, the truth at the newest simulated sample.
+
+Run: ``ros2 run forte_sim bench_twin_node --ros-args -p object:=raspberry`` beside
+``ros2 launch forte_bringup hardware.launch.py sensor_port:=/tmp/forte_bench/sensor
+gripper_port:=/tmp/forte_bench/gripper`` (``bench_twin:=true`` starts both; docs/bringup.md).
+"""
+from __future__ import annotations
+
+import os
+import threading
+import time
+from pathlib import Path
+
+from geometry_msgs.msg import TwistStamped
+from rclpy.node import Node
+
+from forte_msgs.msg import SimGroundTruth
+from forte_ros import run_node
+from forte_ros.parameter_table import ParameterSpec, parameter_table
+from forte_ros.parameters import declare_table, read_table
+from forte_ros.qos import COMMANDS, GROUND_TRUTH
+from forte_sim import SCENE_NAMES, make_scene
+from forte_sim.bench_devices.bench_twin import BenchTwin
+from forte_sim.ros.ground_truth import ground_truth_message
+from forte_sim.truth import SceneTruth
+
+#: Every parameter of the node (all node-only; the scene's apply at start-up).
+PARAMETERS = parameter_table([
+    ParameterSpec('sensor_link', str, 'symlink created to the emulated sensor board\'s pty '
+                  '(the serial sensor node\'s port)', default='/tmp/forte_bench/sensor',
+                  read_only=True),
+    ParameterSpec('servo_link', str, 'symlink created to the simulated servo bus\'s pty (the '
+                  'gripper driver node\'s port)', default='/tmp/forte_bench/gripper',
+                  read_only=True),
+    ParameterSpec('scene', str, 'scene name', choices=SCENE_NAMES, default='grasp',
+                  read_only=True),
+    ParameterSpec('object', str, 'object type (grasp scenes, see forte_sim.OBJECTS) or '
+                  'indentor name (calibration scene)', default='soda_can', read_only=True),
+    ParameterSpec('seed', int, 'seed of every random draw of the scene', low=0,
+                  high=2 ** 31 - 1, default=0, read_only=True),
+    ParameterSpec('cmd_vel_timeout', float, 'the arm stops when no arm/cmd_vel arrived for '
+                  'this long', 's', 0.01, 60.0, default=0.5),
+    ParameterSpec('truth_rate', float, 'sim/ground_truth messages per second', 'Hz', 1.0,
+                  500.0, default=100.0, read_only=True),
+    ParameterSpec('frame_id', str, 'frame_id of sim/ground_truth', default='forte_base_link',
+                  read_only=True),
+])
+
+
+class BenchTwinNode(Node):
+    """The bench twin's devices, scene and arm stand-in (see the module docstring)."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('bench_twin', **kwargs)
+        declare_table(self, PARAMETERS)
+        self.values = read_table(self, PARAMETERS)
+        self._latest: SceneTruth | None = None
+        self._truth_lock = threading.Lock()
+        self._last_cmd_vel = -float('inf')
+        scene = make_scene(self.values['scene'], self.values['object'], self.values['seed'])
+        Path(self.values['sensor_link']).parent.mkdir(parents=True, exist_ok=True)
+        self.twin = BenchTwin(self.values['sensor_link'], scene, on_truth=self._keep_truth)
+        self.twin.start()
+        self._servo_link = Path(self.values['servo_link'])
+        self._servo_link.parent.mkdir(parents=True, exist_ok=True)
+        self._servo_link.unlink(missing_ok=True)
+        os.symlink(self.twin.servo_device, self._servo_link)
+        self._truth_publisher = self.create_publisher(SimGroundTruth, 'sim/ground_truth',
+                                                      GROUND_TRUTH)
+        self.create_subscription(TwistStamped, 'arm/cmd_vel', self._on_cmd_vel, COMMANDS)
+        self.create_timer(1.0 / self.values['truth_rate'], self._tick)
+        self.get_logger().info(
+            f"bench twin up: scene {scene.name!r} object {self.values['object']!r} seed "
+            f"{self.values['seed']}; sensor board at {self.values['sensor_link']}, servos "
+            f'at {self._servo_link} -> {self.twin.servo_device}')
+
+    def _keep_truth(self, truth: SceneTruth) -> None:
+        with self._truth_lock:
+            self._latest = truth
+
+    def _on_cmd_vel(self, message: TwistStamped) -> None:
+        try:
+            self.twin.set_arm_velocity(message.twist.linear.z)
+        except ValueError as error:
+            self.get_logger().warning(f'arm/cmd_vel refused: {error}')
+            return
+        self._last_cmd_vel = time.monotonic()
+
+    def _tick(self) -> None:
+        timeout = float(self.get_parameter('cmd_vel_timeout').value)
+        if time.monotonic() - self._last_cmd_vel > timeout:
+            self.twin.set_arm_velocity(0.0)
+        with self._truth_lock:
+            truth, self._latest = self._latest, None
+        if truth is not None:
+            self._truth_publisher.publish(ground_truth_message(
+                truth, self.twin.scene, self.values['object'],
+                self.get_clock().now().to_msg(), self.values['frame_id']))
+
+    def prepare_shutdown(self) -> None:
+        """Stop the scene and both devices, remove the servo symlink (the node runner calls
+        this while the context is still valid)."""
+        self.twin.close()
+        if self._servo_link.is_symlink():
+            self._servo_link.unlink()
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point ``bench_twin_node``."""
+    return run_node(BenchTwinNode, args)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
