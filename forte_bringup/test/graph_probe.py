@@ -373,6 +373,38 @@ def emulated_devices(folder: Path, timeout: float = 20.0) -> Iterator[tuple[Path
                 device.wait(5)
 
 
+@contextmanager
+def bench_twin(folder: Path, object_name: str, seed: int,
+               timeout: float = 30.0) -> Iterator[tuple[Path, Path]]:
+    """The bench twin node (``python -m forte_sim.ros.bench_twin_node``): both bench devices
+    driven by one scene of ``object_name``, the arm on ``arm/cmd_vel``, the truth on
+    ``sim/ground_truth``; stopped with SIGINT (SIGKILL after 10 s) on exit.
+
+    Yields
+    ------
+    tuple of Path
+        The sensor's and the gripper's device links (ports of the hardware graph).
+    """
+    sensor_link, servo_link = folder / 'bench' / 'sensor', folder / 'bench' / 'gripper'
+    twin = subprocess.Popen(
+        [sys.executable, '-m', 'forte_sim.ros.bench_twin_node', '--ros-args',
+         '-p', f'sensor_link:={sensor_link}', '-p', f'servo_link:={servo_link}',
+         '-p', f'object:={object_name}', '-p', f'seed:={seed}'],
+        stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+    try:
+        assert wait_for(lambda: sensor_link.exists() and servo_link.exists(), timeout), (
+            'the bench twin did not create its links')
+        yield sensor_link, servo_link
+    finally:
+        if twin.poll() is None:
+            twin.send_signal(signal.SIGINT)
+        try:
+            twin.wait(10)
+        except subprocess.TimeoutExpired:
+            twin.kill()
+            twin.wait(5)
+
+
 def force_model_file(path: Path) -> Path:
     """Save the simulated-rig force model (cached across runs) to ``path`` and return it."""
     from forte_bringup.sim_force_model import default_force_model

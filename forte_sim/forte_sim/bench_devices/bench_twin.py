@@ -23,6 +23,15 @@ at device time ``t`` needs the scene's sample at ``t``) and by a background thre
 advance it under one lock, in steps of at most one mechanics tick, so a servo command takes
 effect within 5 ms of scene time, as on a servo whose position loop runs at kHz.
 
+The servo bus runs in a process of its own (:class:`SimulatedServoProcess`), as the
+emulated servos of the driver's tests do: its status packets must not wait for this
+process's interpreter lock (a late status packet is a lost one for dynamixel-sdk, and the
+next read would take it for its answer). The background thread exchanges with it every
+:data:`STEP_PERIOD` (:meth:`SimulatedServoBus.exchange`): the servos' physical state after
+the latest scene step in, their commanded registers out, used by the following steps. So a
+command reaches the scene within about 5 ms, and the sensor board's thread never waits for
+the other process.
+
 The arm is the one part that cannot exist on the bench: :meth:`BenchTwin.set_arm_velocity`
 takes the commanded vertical velocity (the bench twin node feeds it from ``arm/cmd_vel``).
 The scene's ground truth of every step goes to the ``on_truth`` callback (evaluation only).
@@ -40,7 +49,7 @@ from forte_driver.dynamixel import units
 from forte_driver.dynamixel.gripper_config import FingerConfig, GripperConfig
 from forte_ros.contract import COUNTS_PER_FULL_SCALE, N_CHANNELS, SAMPLE_PERIOD
 from forte_sim.bench_devices.emulated_sensor import EmulatedSensor
-from forte_sim.bench_devices.simulated_servo_bus import SimulatedServoBus
+from forte_sim.bench_devices.simulated_servo import SimulatedServoProcess
 from forte_sim.scene import Scene, make_scene
 from forte_sim.state import TICK_SAMPLES
 from forte_sim.truth import SceneTruth
@@ -83,12 +92,10 @@ class BenchTwin:
         self.on_truth = on_truth
         fingers = self.gripper.fingers
         start = self.scene.joint_position
-        self.servos = SimulatedServoBus(
+        self.servos = SimulatedServoProcess(
             ids=tuple(finger.servo_id for finger in fingers),
             baud_rate=self.gripper.baud_rate,
             positions=[int(round(self._raw_position(finger, start))) for finger in fingers])
-        for servo in self.servos.servos.values():
-            servo.externally_driven = True
         self.sensor = EmulatedSensor(sensor_link, signal_fn=self._scan_counts,
                                      seed=sensor_seed)
         self._lock = threading.RLock()
@@ -98,14 +105,16 @@ class BenchTwin:
         self._origin_us = 0  # device time of scene sample 0 [us]
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._write_servo_state()
+        self._drives = self._servo_drives()
+        self._registers: dict[int, dict] = {}
 
     # ---- lifecycle ------------------------------------------------------------------
     def start(self) -> BenchTwin:
         """Open both ptys and start the devices and the real-time scene; returns self."""
+        self.servos.start()  # a process: about a second, not simulated
+        self._exchange()  # the horns at the scene's angle, driven from now on
         now_us = self.sensor.device_time_us()
-        self._origin_us = now_us - now_us % _PERIOD_US
-        self.servos.start()
+        self._origin_us = now_us - now_us % _PERIOD_US  # scene time 0 is now
         self.sensor.start()
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name='bench-twin', daemon=True)
@@ -154,7 +163,16 @@ class BenchTwin:
 
     def _run(self) -> None:
         while not self._stop.wait(STEP_PERIOD):
+            self._exchange()
             self.advance_to(self.sample_index_at(self.sensor.device_time_us()))
+
+    def _exchange(self) -> None:
+        """One exchange with the servo process: the latest drives in, the registers out."""
+        with self._lock:
+            drives = self._drives
+        registers = self.servos.exchange(drives)
+        with self._lock:
+            self._registers = {int(device_id): values for device_id, values in registers.items()}
 
     def _scan_counts(self, sequence: int, device_time_us: int) -> tuple[int, ...]:
         """The sensor board's signal: the scene's sample at the scan's time [counts]."""
@@ -166,7 +184,7 @@ class BenchTwin:
             return tuple(int(value) for value in row)
 
     def _step(self, count: int) -> None:
-        command, max_current, profile_velocity = self._servo_commands()
+        command, max_current, profile_velocity = self._servo_commands(self._registers)
         frames, truth = self.scene.step(count, command, self._arm_velocity,
                                         max_current=max_current,
                                         profile_velocity=profile_velocity)
@@ -175,7 +193,7 @@ class BenchTwin:
         rows = (self._produced + np.arange(count)) % HISTORY_SAMPLES
         self._history[rows] = counts
         self._produced += count
-        self._write_servo_state(command)
+        self._drives = self._servo_drives(command)
         if self.on_truth is not None:
             self.on_truth(truth)
 
@@ -185,31 +203,30 @@ class BenchTwin:
         """Servo position [pulse, fractional] of gripper angle ``theta`` [rad]."""
         return finger.zero_position + finger.direction * theta * _PULSES_PER_RADIAN
 
-    def _servo_commands(self) -> tuple[float, float | None, float | None]:
+    def _servo_commands(self, registers: dict[int, dict]
+                        ) -> tuple[float, float | None, float | None]:
         """(gripper angle [rad], current limit [A] or None, profile velocity [rad/s] or
-        None) the servos are commanded to; torque off holds the present angle."""
-        with self.servos.lock:
-            servos = [self.servos.servos[finger.servo_id] for finger in self.gripper.fingers]
-            if not all(servo.torque_enabled for servo in servos):
-                return self.scene.joint_position, None, None
-            angles = [finger.raw_to_theta(servo.get(ct.GOAL_POSITION))
-                      for finger, servo in zip(self.gripper.fingers, servos)]
-            current = min(min(abs(servo.get(ct.GOAL_CURRENT)), servo.get(ct.CURRENT_LIMIT))
-                          for servo in servos)
-            speed = min(servo.get(ct.PROFILE_VELOCITY) for servo in servos)
+        None) the servos' registers command; torque off holds the present angle."""
+        servos = [registers[finger.servo_id] for finger in self.gripper.fingers]
+        if not all(servo['torque'] for servo in servos):
+            return self.scene.joint_position, None, None
+        angles = [finger.raw_to_theta(servo['goal_position'])
+                  for finger, servo in zip(self.gripper.fingers, servos)]
+        current = min(min(abs(servo['goal_current']), servo['current_limit'])
+                      for servo in servos)
+        speed = min(servo['profile_velocity'] for servo in servos)
         max_current = units.current_units_to_amperes(current) or None
         profile = units.velocity_units_to_radians_per_second(speed) or None
         return sum(angles) / len(angles), max_current, profile
 
-    def _write_servo_state(self, command: float | None = None) -> None:
-        """Present position, velocity and current of both servos from the scene."""
+    def _servo_drives(self, command: float | None = None) -> dict[int, tuple[float, ...]]:
+        """Present position [pulse], velocity [pulse/s] and current [2.69 mA units] of
+        both servos from the scene."""
         theta = self.scene.joint_position
         # along theta: a finger squeezing (commanded at or below its angle) pushes closed
         squeeze = -1.0 if command is None or command <= theta else 1.0
-        with self.servos.lock:
-            for finger, effort in zip(self.gripper.fingers, self.scene.joint_effort):
-                servo = self.servos.servos[finger.servo_id]
-                servo.drive(self._raw_position(finger, theta),
-                            finger.direction * self.scene.joint_velocity * _PULSES_PER_RADIAN,
-                            finger.direction * squeeze * effort
-                            / units.current_units_to_amperes(1))
+        return {finger.servo_id: (
+                    self._raw_position(finger, theta),
+                    finger.direction * self.scene.joint_velocity * _PULSES_PER_RADIAN,
+                    finger.direction * squeeze * effort / units.current_units_to_amperes(1))
+                for finger, effort in zip(self.gripper.fingers, self.scene.joint_effort)}

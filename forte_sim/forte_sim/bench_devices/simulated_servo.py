@@ -69,7 +69,7 @@ class SimulatedServoProcess:
     """
 
     FORWARDED = ('count', 'packet_log', 'register_value', 'inject_hardware_error',
-                 'inject_status_error', 'clear_status_errors', 'set_servo')
+                 'inject_status_error', 'clear_status_errors', 'set_servo', 'exchange')
 
     def __init__(self, ids=(1, 2), baud_rate: int = 4_000_000, positions=None):
         self._arguments = ['--ids', *map(str, ids), '--baud', str(baud_rate)]

@@ -169,6 +169,35 @@ class SimulatedServoBus:
                 setattr(servo, name, value)
             servo.step(1e-6)
 
+    def exchange(self, drives: dict) -> dict:
+        """The hook of a coupled simulation (the bench twin): set each servo's physical
+        state and return what the host commands it.
+
+        Parameters
+        ----------
+        drives : dict
+            ``{servo id: (position [pulse], velocity [pulse/s], current [2.69 mA units])}``;
+            those servos become :attr:`SimulatedXM430.externally_driven`. Ids may be given
+            as text (JSON keys).
+
+        Returns
+        -------
+        dict
+            ``{servo id: {'torque': bool, 'goal_position', 'goal_current', 'current_limit',
+            'profile_velocity': register values}}`` of every servo on the bus.
+        """
+        with self.lock:
+            for device_id, (position, velocity, current) in drives.items():
+                servo = self.servos[int(device_id)]
+                servo.externally_driven = True
+                servo.drive(position, velocity, current)
+            return {device_id: {'torque': servo.torque_enabled,
+                                'goal_position': servo.get(ct.GOAL_POSITION),
+                                'goal_current': servo.get(ct.GOAL_CURRENT),
+                                'current_limit': servo.get(ct.CURRENT_LIMIT),
+                                'profile_velocity': servo.get(ct.PROFILE_VELOCITY)}
+                    for device_id, servo in self.servos.items()}
+
     # -- serving ---------------------------------------------------------------------
     def _host_baud(self) -> int | None:
         try:
