@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from forte_perception.force import ForceModel, force_features
-from forte_perception.median import RunningMedian
+from forte_perception.median import MEDIAN_WINDOW, RunningMedian
 from forte_ros.contract import CHANNEL_NAMES
 
 __all__ = ['CalibrationRows', 'cross_validate', 'load_calibration', 'make_rows',
@@ -75,7 +75,7 @@ class CalibrationRows:
 
 
 def make_rows(dataset: dict[str, np.ndarray], stride: int = 200,
-              median_window: int = 11) -> CalibrationRows:
+              median_window: int = MEDIAN_WINDOW) -> CalibrationRows:
     """Per-trial tare, median, force features; every ``stride``-th sample after the tare."""
     fs = float(dataset['fs'])
     tare = int(dataset['tare_samples'])

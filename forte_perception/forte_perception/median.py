@@ -13,7 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ['RunningMedian', 'running_median']
+__all__ = ['MEDIAN_WINDOW', 'RunningMedian', 'running_median']
+
+#: The paper's median filter length M [samples]: the default of the pipeline, the force
+#: calibration and the offline slip tools.
+MEDIAN_WINDOW = 11
 
 
 class RunningMedian:

@@ -44,7 +44,7 @@ from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from forte_perception.channel_health import HEALTH_MASKED, ChannelHealth
 from forte_perception.force import ForceFeatures, ForceModel, window_lengths
-from forte_perception.median import RunningMedian
+from forte_perception.median import MEDIAN_WINDOW, RunningMedian
 from forte_perception.slip.detector import SlipDetector, SlipParams
 from forte_perception.slip.mask import SlipMask
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, SAMPLE_RATE
@@ -82,7 +82,7 @@ class PipelineConfig:
     """
 
     fs: float = SAMPLE_RATE
-    median_window: int = 11
+    median_window: int = MEDIAN_WINDOW
     contact_window: int = 200
     contact_threshold: float = 0.01
     tare_duration: float = 2.0

@@ -36,7 +36,7 @@ from forte_perception.evaluation.slip_metrics import (
     scene_outcome,
     summarise,
 )
-from forte_perception.median import running_median
+from forte_perception.median import MEDIAN_WINDOW, running_median
 from forte_perception.slip.detector import SlipParams, slip_features
 
 __all__ = ['MODES', 'SERVO_HOLD', 'Detection', 'SensorInput', 'markdown', 'paper_mode',
@@ -127,7 +127,7 @@ MODES: dict[str, Callable[[SensorInput], Detection]] = {
     'paper': paper_mode, 'robust': robust_mode, 'robust_servo_gate': robust_servo_gate_mode}
 
 
-def prepare(scenes: list[SlipScene], median_window: int = 11) -> list[SensorInput]:
+def prepare(scenes: list[SlipScene], median_window: int = MEDIAN_WINDOW) -> list[SensorInput]:
     """The inputs of every scene (the median filter is computed here, once)."""
     return [SensorInput(s.frames, running_median(s.frames, median_window), s.fs, s.context)
             for s in scenes]

@@ -35,7 +35,7 @@ from forte_perception.evaluation.slip_metrics import (
     match_onsets,
     outside_windows,
 )
-from forte_perception.median import running_median
+from forte_perception.median import MEDIAN_WINDOW, running_median
 from forte_perception.slip.detector import SlipParams, slip_features
 
 __all__ = ['LabelledRecording', 'evaluate_slip', 'load_labelled', 'save_labelled']
@@ -99,7 +99,7 @@ def _trials(rec: LabelledRecording) -> list[tuple[int, int]]:
 
 
 def evaluate_slip(recordings: list[LabelledRecording], params: SlipParams | None = None,
-                  median_window: int = 11, max_latency: float = MAX_LATENCY,
+                  median_window: int = MEDIAN_WINDOW, max_latency: float = MAX_LATENCY,
                   skip: float = 0.0) -> dict:
     """Trial-wise confusion counts and scores, per-onset latencies, false alarms.
 

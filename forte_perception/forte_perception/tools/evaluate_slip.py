@@ -21,6 +21,7 @@ from pathlib import Path
 
 from forte_perception.evaluation.recordings import evaluate_slip, load_labelled
 from forte_perception.evaluation.slip_metrics import MAX_LATENCY, format_value, latency_stats
+from forte_perception.median import MEDIAN_WINDOW
 from forte_perception.slip.detector import SlipParams
 from forte_perception.slip.params import MODES
 
@@ -34,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
                         help='longest onset-to-flag delay counted as a detection [s]')
     parser.add_argument('--skip', type=float, default=0.0,
                         help='ignore flags in the first SKIP seconds of every trial [s]')
-    parser.add_argument('--median-window', type=int, default=11)
+    parser.add_argument('--median-window', type=int, default=MEDIAN_WINDOW)
     parser.add_argument('--window', type=int, default=d.window, help='FFT window N')
     parser.add_argument('--hop', type=int, default=d.hop)
     parser.add_argument('--f-min', type=float, default=d.f_min)
