@@ -336,73 +336,55 @@ def write_quiet_bag(path: Path, messages: int = 600, first_second: int = 1000,
 
 
 @contextmanager
-def emulated_devices(folder: Path, timeout: float = 20.0) -> Iterator[tuple[Path, Path]]:
+def _device_processes(commands: list[list[str]], links: tuple[Path, Path], timeout: float,
+                      what: str) -> Iterator[tuple[Path, Path]]:
+    """Run ``python -m <command>`` for each of ``commands`` until they created ``links``;
+    on exit stop each with SIGINT (SIGKILL after 10 s)."""
+    processes = [subprocess.Popen([sys.executable, '-m', *command], stdout=subprocess.DEVNULL,
+                                  stderr=subprocess.STDOUT) for command in commands]
+    try:
+        assert wait_for(lambda: all(link.exists() for link in links), timeout), (
+            f'{what} did not create {" and ".join(str(link) for link in links)}')
+        yield links
+    finally:
+        for process in processes:
+            if process.poll() is None:
+                process.send_signal(signal.SIGINT)
+        for process in processes:
+            try:
+                process.wait(10)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait(5)
+
+
+def emulated_devices(folder: Path, timeout: float = 20.0):
     """The emulated tactile sensor and the simulated Dynamixel pair on pseudo-terminals.
 
     Runs ``python -m forte_sim.bench_devices.emulated_sensor --link <folder>/forte_sensor``
     and ``python -m forte_sim.bench_devices.simulated_servo --link <folder>/forte_gripper``;
-    stops both with SIGINT (SIGKILL after 10 s) on exit.
-
-    Yields
-    ------
-    tuple of Path
-        The sensor's and the gripper's device links (ports of the hardware graph).
+    stops both with SIGINT (SIGKILL after 10 s) on exit. A context manager yielding the
+    sensor's and the gripper's device links (ports of the hardware graph).
     """
     sensor_link, servo_link = folder / 'forte_sensor', folder / 'forte_gripper'
-    devices = [
-        subprocess.Popen([sys.executable, '-m', 'forte_sim.bench_devices.emulated_sensor',
-                          '--link', str(sensor_link)],
-                         stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT),
-        subprocess.Popen([sys.executable, '-m', 'forte_sim.bench_devices.simulated_servo',
-                          '--link', str(servo_link)],
-                         stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT),
-    ]
-    try:
-        assert wait_for(lambda: sensor_link.exists() and servo_link.exists(), timeout), (
-            'the emulated devices did not create their links')
-        yield sensor_link, servo_link
-    finally:
-        for device in devices:
-            if device.poll() is None:
-                device.send_signal(signal.SIGINT)
-        for device in devices:
-            try:
-                device.wait(10)
-            except subprocess.TimeoutExpired:
-                device.kill()
-                device.wait(5)
+    return _device_processes(
+        [['forte_sim.bench_devices.emulated_sensor', '--link', str(sensor_link)],
+         ['forte_sim.bench_devices.simulated_servo', '--link', str(servo_link)]],
+        (sensor_link, servo_link), timeout, 'the emulated devices')
 
 
-@contextmanager
-def bench_twin(folder: Path, object_name: str, seed: int,
-               timeout: float = 30.0) -> Iterator[tuple[Path, Path]]:
+def bench_twin(folder: Path, object_name: str, seed: int, timeout: float = 30.0):
     """The bench twin node (``python -m forte_sim.ros.bench_twin_node``): both bench devices
     driven by one scene of ``object_name``, the arm on ``arm/cmd_vel``, the truth on
-    ``sim/ground_truth``; stopped with SIGINT (SIGKILL after 10 s) on exit.
-
-    Yields
-    ------
-    tuple of Path
-        The sensor's and the gripper's device links (ports of the hardware graph).
+    ``sim/ground_truth``; stopped with SIGINT (SIGKILL after 10 s) on exit. A context
+    manager yielding the sensor's and the gripper's device links.
     """
     sensor_link, servo_link = folder / 'bench' / 'sensor', folder / 'bench' / 'gripper'
-    twin = subprocess.Popen(
-        [sys.executable, '-m', 'forte_sim.ros.bench_twin_node', '--ros-args',
-         '-p', f'sensor_link:={sensor_link}', '-p', f'servo_link:={servo_link}',
-         '-p', f'object:={object_name}', '-p', f'seed:={seed}'],
-        stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
-    try:
-        assert wait_for(lambda: sensor_link.exists() and servo_link.exists(), timeout), (
-            'the bench twin did not create its links')
-        yield sensor_link, servo_link
-    finally:
-        if twin.poll() is None:
-            twin.send_signal(signal.SIGINT)
-        try:
-            twin.wait(10)
-        except subprocess.TimeoutExpired:
-            twin.kill()
-            twin.wait(5)
+    return _device_processes(
+        [['forte_sim.ros.bench_twin_node', '--ros-args', '-p', f'sensor_link:={sensor_link}',
+          '-p', f'servo_link:={servo_link}', '-p', f'object:={object_name}',
+          '-p', f'seed:={seed}']],
+        (sensor_link, servo_link), timeout, 'the bench twin')
 
 
 def force_model_file(path: Path) -> Path:
