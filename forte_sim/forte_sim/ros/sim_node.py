@@ -44,7 +44,7 @@ from forte_ros import ForteLifecycleNode, run_node
 from forte_ros.contract import CHANNEL_NAMES, SAMPLE_PERIOD
 from forte_ros.diagnostics import OK, diagnostic_array, diagnostic_status
 from forte_ros.parameter_table import ParameterSpec, parameter_table
-from forte_ros.parameters import declare_table
+from forte_ros.parameters import declare_table, parameter_update
 from forte_ros.qos import COMMANDS, DIAGNOSTICS, GROUND_TRUTH, SENSOR_FRAMES, reliable
 from forte_sim import SCENE_NAMES, Scene, make_scene
 from forte_sim.ros.ground_truth import ground_truth_message
@@ -135,27 +135,19 @@ class SimNode(ForteLifecycleNode):
 
     # ------------------------------------------------------------------ parameters
     def _on_set_parameters(self, parameters) -> SetParametersResult:
-        for parameter in parameters:
-            if parameter.name in SCENE_PARAMETERS and getattr(self, '_scene', None) is not None:
+        values, reason = parameter_update(parameters, PARAMETERS)  # ranges and kinds
+        if reason:
+            return SetParametersResult(successful=False, reason=reason)
+        for name in values:
+            if name in SCENE_PARAMETERS and getattr(self, '_scene', None) is not None:
                 return SetParametersResult(
-                    successful=False, reason=f'{parameter.name} applies at configure: '
+                    successful=False, reason=f'{name} applies at configure: '
                     'deactivate and clean up the node first')
-            if parameter.name in ('real_time_factor', 'cmd_vel_timeout'):
-                value = parameter.value
-                if not isinstance(value, float) or not math.isfinite(value):
-                    return SetParametersResult(successful=False,
-                                               reason=f'{parameter.name} must be a finite float')
-                if parameter.name == 'real_time_factor' and value < 0.0:
-                    return SetParametersResult(successful=False,
-                                               reason='real_time_factor must be >= 0')
-                if parameter.name == 'cmd_vel_timeout' and value <= 0.0:
-                    return SetParametersResult(successful=False,
-                                               reason='cmd_vel_timeout must be > 0')
-            if parameter.name == 'real_time_factor' and self._timer is not None:
-                # re-anchor the schedule so the new factor applies from now on
-                self._anchor_wall = time.monotonic()
-                self._anchor_samples = self._scene.sample_index if self._scene else 0
-                self._restart_timer(float(parameter.value))
+        if 'real_time_factor' in values and self._timer is not None:
+            # re-anchor the schedule so the new factor applies from now on
+            self._anchor_wall = time.monotonic()
+            self._anchor_samples = self._scene.sample_index if self._scene else 0
+            self._restart_timer(values['real_time_factor'])
         return SetParametersResult(successful=True)
 
     # ------------------------------------------------------------------ lifecycle
