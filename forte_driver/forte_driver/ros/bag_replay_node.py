@@ -35,7 +35,7 @@ from forte_driver.replay.mcap_source import BagError, BagMessage, BagReadReport,
 from forte_ros import publish_quietly, run_node
 from forte_ros.diagnostics import ERROR, OK, diagnostic_array, diagnostic_status
 from forte_ros.parameter_table import ParameterSpec, parameter_table
-from forte_ros.parameters import declare_table
+from forte_ros.parameters import declare_table, parameter_update
 from forte_ros.qos import DIAGNOSTICS, GRASP_STATE, SENSOR_FRAMES, reliable
 
 #: History depth of the reliable replay publishers [messages] (about 100 s of frames).
@@ -156,14 +156,8 @@ class BagReplayNode(Node):
 
     # parameters ------------------------------------------------------------------------
     def _on_set_parameters(self, parameters: list) -> SetParametersResult:
-        for parameter in parameters:
-            if parameter.name == 'rate':
-                value = float(parameter.value)
-                if not value >= 0.0:
-                    return SetParametersResult(
-                        successful=False, reason='rate must be >= 0 (0 = as fast as possible)'
-                    )
-        return SetParametersResult(successful=True)
+        _, reason = parameter_update(parameters, PARAMETERS)  # kinds, finite values, ranges
+        return SetParametersResult(successful=not reason, reason=reason)
 
     # publishing ------------------------------------------------------------------------
     def _qos(self, topic: str) -> QoSProfile:
