@@ -21,10 +21,18 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from forte_msgs.action import Grasp
-from forte_msgs.msg import GraspState, ServoCommand, SimGroundTruth, TactileFrames, TactileState
+from forte_msgs.msg import (
+    GraspState,
+    SensorInfo,
+    ServoCommand,
+    SimGroundTruth,
+    TactileFrames,
+    TactileState,
+)
 from forte_msgs.srv import ResetFault, Tare
 
-MESSAGE_TYPES = (TactileFrames, TactileState, ServoCommand, GraspState, SimGroundTruth)
+MESSAGE_TYPES = (TactileFrames, TactileState, ServoCommand, GraspState, SimGroundTruth,
+                 SensorInfo)
 RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 
 

@@ -20,10 +20,18 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from forte_msgs.action import Grasp
-from forte_msgs.msg import GraspState, ServoCommand, SimGroundTruth, TactileFrames, TactileState
+from forte_msgs.msg import (
+    GraspState,
+    SensorInfo,
+    ServoCommand,
+    SimGroundTruth,
+    TactileFrames,
+    TactileState,
+)
 from forte_msgs.srv import ResetFault, Tare
 
-MESSAGE_TYPES = (TactileFrames, TactileState, ServoCommand, GraspState, SimGroundTruth)
+MESSAGE_TYPES = (TactileFrames, TactileState, ServoCommand, GraspState, SimGroundTruth,
+                 SensorInfo)
 RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 PEER = Path(__file__).with_name('echo_peer.py')
 
@@ -34,6 +42,7 @@ SCALAR_VALUES = {
     'float': lambda i: 0.25 + i,
     'uint8': lambda i: 3 + i % 250,
     'int32': lambda i: -7 - i,
+    'uint16': lambda i: 60_000 + i,
     'uint32': lambda i: 4_000_000_000 - i,
     'int64': lambda i: -(2**40) - i,
     'uint64': lambda i: 2**63 + i,

@@ -10,6 +10,7 @@ change to the contract is a change to this file and the table, nothing else.
 - :data:`COMMANDS`: ``gripper/command``, ``joint_states``, ``arm/cmd_vel``; reliable, keep
   last 10.
 - :data:`GRASP_STATE`: ``grasp/state``; reliable, transient local, keep last 1.
+- :data:`SENSOR_INFO`: ``tactile/sensor_info``; reliable, transient local, keep last 1.
 - :data:`GROUND_TRUTH`: ``sim/ground_truth``; reliable, keep last 50.
 - :data:`DIAGNOSTICS`: ``/diagnostics``; reliable, keep last 10.
 
@@ -21,7 +22,7 @@ from __future__ import annotations
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 __all__ = ['COMMANDS', 'DIAGNOSTICS', 'GRASP_STATE', 'GROUND_TRUTH', 'RELIABLE_FRAMES',
-           'SENSOR_FRAMES', 'TACTILE_STATE', 'frames_profile', 'reliable']
+           'SENSOR_FRAMES', 'SENSOR_INFO', 'TACTILE_STATE', 'frames_profile', 'reliable']
 
 
 def reliable(depth: int, transient_local: bool = False) -> QoSProfile:
@@ -56,6 +57,8 @@ TACTILE_STATE = reliable(50)
 COMMANDS = reliable(10)
 #: ``grasp/state``: the latest state for anyone who joins late.
 GRASP_STATE = reliable(1, transient_local=True)
+#: ``tactile/sensor_info``: the sensor's identity, latched for late subscribers.
+SENSOR_INFO = reliable(1, transient_local=True)
 #: ``sim/ground_truth``.
 GROUND_TRUTH = reliable(50)
 #: ``/diagnostics``.
