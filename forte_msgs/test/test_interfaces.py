@@ -29,6 +29,7 @@ from forte_msgs.msg import (
     TactileState,
 )
 from forte_msgs.srv import ResetFault, Tare
+from forte_ros.sensor_identity import SensorIdentity
 
 MESSAGE_TYPES = (TactileFrames, TactileState, ServoCommand, GraspState, SimGroundTruth,
                  SensorInfo)
@@ -193,3 +194,12 @@ def test_grasp_action_rejects_unknown_controller_and_cancels(peer, node):
     result_future = handle.get_result_async()
     assert spin_until(node, result_future.done)
     assert result_future.result().result.outcome == Grasp.Result.CANCELED
+
+
+def test_sensor_info_carries_exactly_the_sensor_identity_fields():
+    """SensorInfo(**identity.to_dict()) and SensorIdentity.from_message stay in step."""
+    identity = SensorIdentity(source='serial', device_id='00000000c0ffee01', firmware='1.2.3',
+                              protocol_version=1, sample_rate=1000.0, adc_bits=12)
+    message = SensorInfo(**identity.to_dict())
+    assert set(SensorInfo.get_fields_and_field_types()) == {'header', *identity.to_dict()}
+    assert SensorIdentity.from_message(message) == identity

@@ -6,8 +6,10 @@ Two kinds of module, told apart by what they import:
   :mod:`forte_ros.contract` (channel names and order, finger groups, sample rate, value
   range: the sensor contract of docs/contracts.md, declared once),
   :mod:`forte_ros.parameter_table` (:class:`ParameterSpec`, the one shape of every node's
-  parameter table) and :mod:`forte_ros.isolation` (DDS discovery confined to loopback and a
-  domain id of the process's own, for tests, demos and benchmarks).
+  parameter table), :mod:`forte_ros.isolation` (DDS discovery confined to loopback and a
+  domain id of the process's own, for tests, demos and benchmarks) and
+  :mod:`forte_ros.sensor_identity` (what a force model was trained on against the sensor it
+  runs on).
 - ROS (import rclpy or ROS messages):
   :mod:`forte_ros.node_runner` (:func:`run_node` and :class:`NodeRunner`, the body of every
   node's ``main``: SIGINT and SIGTERM only request a stop; the executor stops, threads are

@@ -39,8 +39,9 @@ PROJECT_MODULES = set(ALLOWED_IMPORTS)
 ROS_IMPORTS = re.compile(r'^(rclpy|launch|launch_ros|rosidl_\w+|rcl_interfaces|\w+_msgs|'
                          r'\w+_srvs|forte_ros)(\.|$)')
 #: The modules of forte_ros that import nothing of ROS (the contract, the parameter-table
-#: shape, the DDS isolation run before rclpy loads).
-PURE_FORTE_ROS = ('forte_ros.contract', 'forte_ros.parameter_table', 'forte_ros.isolation')
+#: shape, the DDS isolation run before rclpy loads, the sensor identity check).
+PURE_FORTE_ROS = ('forte_ros.contract', 'forte_ros.parameter_table', 'forte_ros.isolation',
+                  'forte_ros.sensor_identity')
 #: Core packages: pure Python outside their ``ros/`` folder, the ROS shell.
 CORE_PACKAGES = ('forte_driver', 'forte_sim', 'forte_perception', 'forte_control')
 #: The folder of a core package that holds its ROS shell (nodes and their parts).
