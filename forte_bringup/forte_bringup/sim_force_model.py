@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from forte_ros.sensor_identity import SIMULATED_SENSOR
+
 __all__ = ['FORCE_TRAINING', 'calibration_features', 'default_force_model',
            'train_force_model']
 
@@ -33,7 +35,7 @@ _MODEL_CACHE: dict[str, object] = {}
 
 
 def _source_hash() -> str:
-    """Hash of the simulator and perception sources and the training settings."""
+    """Hash of the simulator and perception sources, this module and the training settings."""
     import forte_perception
     import forte_sim as sim
 
@@ -42,6 +44,7 @@ def _source_hash() -> str:
         for path in sorted(package.glob('*.py')):
             digest.update(path.name.encode())
             digest.update(path.read_bytes())
+    digest.update(Path(__file__).read_bytes())
     return digest.hexdigest()[:16]
 
 
@@ -124,7 +127,8 @@ def train_force_model(settings: dict | None = None):
     return ForceModel.fit(features, force, C=s['C'], epsilon=s['epsilon'],
                           force_range=(0.0, 10.0),
                           metadata={'source': 'forte_bringup.closed_loop simulated rig',
-                                    'settings': {k: v for k, v in s.items()}})
+                                    'settings': {k: v for k, v in s.items()},
+                                    'sensor': SIMULATED_SENSOR.to_dict()})
 
 
 def default_force_model(refresh: bool = False):

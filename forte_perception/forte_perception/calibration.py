@@ -12,6 +12,7 @@ from the end of the tare period on is a training row.
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,9 +22,10 @@ import numpy as np
 from forte_perception.force import ForceModel, force_features
 from forte_perception.median import MEDIAN_WINDOW, RunningMedian
 from forte_ros.contract import CHANNEL_NAMES
+from forte_ros.sensor_identity import SensorIdentity, check_identity
 
 __all__ = ['CalibrationRows', 'cross_validate', 'load_calibration', 'make_rows',
-           'train_model']
+           'train_model', 'training_sensor']
 
 REQUIRED_KEYS = ('frames', 'force', 'trial', 'indentor', 'indentor_names', 'fs',
                  'channel_names', 'tare_samples')
@@ -43,6 +45,9 @@ def load_calibration(path: str | Path) -> dict[str, np.ndarray]:
         if missing:
             raise ValueError(f'{path}: missing keys {missing}')
         ds = {k: data[k] for k in REQUIRED_KEYS}
+        if 'sensor_identity' in data.files:
+            ds['sensor_identity'] = data['sensor_identity']
+    _check_identity_key(path, ds)
     n = ds['frames'].shape[0]
     if ds['frames'].ndim != 2 or ds['frames'].shape[1] != 6:
         raise ValueError(f'{path}: frames must be (n, 6), got {ds["frames"].shape}')
@@ -61,6 +66,47 @@ def load_calibration(path: str | Path) -> dict[str, np.ndarray]:
                                 or ds['indentor'].max() >= len(ds['indentor_names'])):
         raise ValueError(f'{path}: indentor index outside indentor_names')
     return ds
+
+
+def _check_identity_key(path: str | Path, dataset: dict[str, np.ndarray]) -> None:
+    """The optional ``sensor_identity`` must parse and agree with ``fs`` / channel order."""
+    if 'sensor_identity' not in dataset:
+        return
+    try:
+        identity = SensorIdentity.from_dict(json.loads(str(dataset['sensor_identity'])))
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f'{path}: sensor_identity: {exc}') from exc
+    recorded = {'sample_rate': float(dataset['fs']),
+                'channel_names': [str(name) for name in dataset['channel_names']]}
+    refusals = check_identity(recorded, identity).refusals
+    if refusals:
+        raise ValueError(f'{path}: sensor_identity disagrees with the data: '
+                         + '; '.join(refusals))
+
+
+def training_sensor(dataset: dict[str, np.ndarray]) -> dict:
+    """What a model trained on ``dataset`` was trained on, for its ``metadata['sensor']``.
+
+    Parameters
+    ----------
+    dataset : dict
+        From :func:`load_calibration`.
+
+    Returns
+    -------
+    dict
+        ``sample_rate`` [Hz] and ``channel_names`` of the data, and the recorded sensor
+        identity's fields (``device_id``, ``firmware``, ``counts_per_full_scale``, ...)
+        when the dataset has one (``forte_ros.sensor_identity.check_identity`` compares
+        it with the sensor a node runs on).
+    """
+    sensor: dict = {}
+    if 'sensor_identity' in dataset:
+        sensor.update(SensorIdentity.from_dict(
+            json.loads(str(dataset['sensor_identity']))).to_dict())
+    sensor['sample_rate'] = float(dataset['fs'])
+    sensor['channel_names'] = [str(name) for name in dataset['channel_names']]
+    return sensor
 
 
 @dataclass

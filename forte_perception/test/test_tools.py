@@ -20,8 +20,14 @@ NAMES = ['left_distal', 'left_middle', 'left_root', 'right_distal', 'right_middl
          'right_root']
 
 
-def calibration_file(path, n_trials=12, seconds=4.0, seed=0):
-    """A contract-format dataset from a made-up sensor (force -> pressure, relaxation)."""
+BOARD = {'source': 'serial', 'device_id': '00000000c0ffee01', 'firmware': '1.0.0',
+         'protocol_version': 1, 'sample_rate': FS, 'channel_names': NAMES,
+         'counts_per_full_scale': 1024, 'adc_bits': 12}
+
+
+def calibration_file(path, n_trials=12, seconds=4.0, seed=0, identity=None):
+    """A contract-format dataset from a made-up sensor (force -> pressure, relaxation);
+    ``identity``: the optional ``sensor_identity`` (a dict, written as JSON)."""
     rng = np.random.default_rng(seed)
     n = int(seconds * FS)
     t = np.arange(n) / FS
@@ -38,7 +44,8 @@ def calibration_file(path, n_trials=12, seconds=4.0, seed=0):
     np.savez(path, frames=np.concatenate(frames), force=np.concatenate(force),
              trial=np.concatenate(trial), indentor=np.concatenate(indentor),
              indentor_names=np.array(['flat', 'round', 'edge']), fs=np.float64(FS),
-             channel_names=np.array(NAMES), tare_samples=np.int64(2000))
+             channel_names=np.array(NAMES), tare_samples=np.int64(2000),
+             **({} if identity is None else {'sensor_identity': json.dumps(identity)}))
     return path
 
 
@@ -81,6 +88,30 @@ def test_train_force_tool(tmp_path, capsys):
     model = ForceModel.load(out)
     assert model.metadata['trials'] == 12 and len(model.metadata['dataset_sha256']) == 64
     assert model.force_range[1] > 7.0
+    # no recorded identity: the model still knows the rate and the channel order
+    assert model.metadata['sensor'] == {'sample_rate': FS, 'channel_names': NAMES}
+
+
+def test_the_model_records_the_sensor_it_was_trained_on(tmp_path):
+    path = calibration_file(tmp_path / 'cal.npz', n_trials=4, identity=BOARD)
+    out = tmp_path / 'model.npz'
+    assert train_force.main([str(path), '-o', str(out), '--folds', '0']) == 0
+    assert ForceModel.load(out).metadata['sensor'] == BOARD
+
+
+@pytest.mark.parametrize('identity, words', [
+    ('{"source": "serial"', 'sensor_identity'),                       # not JSON
+    (json.dumps({'source': 'serial'}), 'device_id'),                    # incomplete
+    (json.dumps(dict(BOARD, sample_rate=1000.0)), '1000 Hz'),           # another rate
+    (json.dumps(dict(BOARD, channel_names=NAMES[::-1])), 'channel order'),
+])
+def test_an_identity_that_disagrees_with_the_data_is_refused(tmp_path, identity, words):
+    path = calibration_file(tmp_path / 'cal.npz', n_trials=2)
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    np.savez(tmp_path / 'bad.npz', sensor_identity=identity, **arrays)
+    with pytest.raises(ValueError, match=words):
+        load_calibration(tmp_path / 'bad.npz')
 
 
 def test_evaluate_slip_on_labelled_trials(tmp_path, capsys):

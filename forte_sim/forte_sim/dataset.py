@@ -7,6 +7,7 @@ The load cell (mean of the two finger forces plus its own noise) is the ground t
 """
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,12 +15,16 @@ from pathlib import Path
 import numpy as np
 
 from forte_ros.contract import CHANNEL_NAMES, SAMPLE_RATE
+from forte_ros.sensor_identity import SIMULATED_SENSOR
 from forte_sim.catalogue import INDENTORS
 from forte_sim.scene import make_scene
 
 #: Keys of the dataset file, in the contract's order.
 DATASET_KEYS = ('frames', 'force', 'trial', 'indentor', 'indentor_names', 'fs',
                 'channel_names', 'tare_samples')
+#: Optional keys: ``sensor_identity``, the JSON of the sensor's identity
+#: (:class:`forte_ros.sensor_identity.SensorIdentity`); the simulator's here.
+OPTIONAL_KEYS = ('sensor_identity',)
 
 
 @dataclass(frozen=True)
@@ -110,7 +115,8 @@ def generate_calibration_dataset(protocol: CalibrationProtocol = CalibrationProt
     Returns
     -------
     dict
-        The arrays of the contract's dataset (keys :data:`DATASET_KEYS`).
+        The arrays of the contract's dataset (keys :data:`DATASET_KEYS` and the
+        simulator's ``sensor_identity``).
     """
     names = list(indentors) if indentors is not None else list(INDENTORS)
     for name in names:
@@ -144,6 +150,7 @@ def generate_calibration_dataset(protocol: CalibrationProtocol = CalibrationProt
         'fs': np.float64(SAMPLE_RATE),
         'channel_names': np.array(CHANNEL_NAMES),
         'tare_samples': np.int64(protocol.tare_samples),
+        'sensor_identity': np.array(json.dumps(SIMULATED_SENSOR.to_dict())),
     }
 
 
@@ -173,7 +180,8 @@ def save_dataset(path: str | Path, dataset: dict[str, np.ndarray],
         target = target.with_name(target.name + '.npz')
     partial = target.with_name(target.name + '.partial.npz')
     writer = np.savez_compressed if compressed else np.savez
-    writer(partial, **{key: dataset[key] for key in DATASET_KEYS})
+    keys = DATASET_KEYS + tuple(key for key in OPTIONAL_KEYS if key in dataset)
+    writer(partial, **{key: dataset[key] for key in keys})
     partial.replace(target)
     return target
 
@@ -190,7 +198,7 @@ def load_dataset(path: str | Path) -> dict[str, np.ndarray]:
         missing = [key for key in DATASET_KEYS if key not in data.files]
         if missing:
             raise ValueError(f'{path}: missing keys {missing}')
-        dataset = {key: data[key] for key in DATASET_KEYS}
+        dataset = {key: data[key] for key in DATASET_KEYS + OPTIONAL_KEYS if key in data.files}
     count = len(dataset['frames'])
     if dataset['frames'].ndim != 2 or dataset['frames'].shape[1] != 6:
         raise ValueError(f'{path}: frames must be (n, 6), got {dataset["frames"].shape}')

@@ -28,7 +28,11 @@ def test_dataset_follows_the_contract(dataset, tmp_path):
     path = save_dataset(tmp_path / 'calibration', dataset)
     assert path.suffix == '.npz'
     with np.load(path, allow_pickle=False) as data:
-        assert sorted(data.files) == sorted(DATASET_KEYS)
+        assert sorted(data.files) == sorted(DATASET_KEYS + ('sensor_identity',))
+        identity = json.loads(str(data['sensor_identity']))
+        assert identity['source'] == 'sim' and identity['device_id'] == 'simulator'
+        assert identity['sample_rate'] == 2000.0
+        assert tuple(identity['channel_names']) == CHANNEL_NAMES
         frames = data['frames']
         assert frames.dtype == np.float32 and frames.shape[1] == 6
         n = frames.shape[0]

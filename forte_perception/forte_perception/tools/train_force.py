@@ -7,7 +7,9 @@ Example::
 Prints the 10-fold trial-wise cross-validation (RMSE and MAE per indentor shape and
 overall) with the history features (24) and without them (the latest frame only, the
 paper's baseline), then fits the final model on every row and saves it (versioned .npz,
-no pickle) with its metadata (dataset hash, settings, CV results, training input range).
+no pickle) with its metadata (dataset hash, settings, CV results, training input range, and
+``sensor``: the sample rate, channel order and recorded sensor identity of the dataset,
+which the perception node checks against the sensor it runs on).
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ from forte_perception.calibration import (
     load_calibration,
     make_rows,
     train_model,
+    training_sensor,
 )
 
 
@@ -80,6 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     metadata = {'dataset_sha256': file_sha256(args.dataset), 'dataset': Path(args.dataset).name,
                 'stride': args.stride, 'trials': int(len(set(rows.trial.tolist()))),
                 'indentor_names': list(rows.indentor_names),
+                'sensor': training_sensor(dataset),
                 'trained_utc': time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}
     if 'cv_history' in report:
         metadata['cv_rmse'] = report['cv_history']['overall']['rmse']
