@@ -23,7 +23,9 @@ stream goes on. If the thread ends anyway, the supervisor restarts it (at most 5
 minute, then it deactivates the node with ERROR): never active and silently idle.
 
 Topics: ``tactile/frames`` (forte_msgs/TactileFrames, sensor-data QoS or reliable with
-``reliable:=true``), ``/diagnostics`` (diagnostic_msgs/DiagnosticArray).
+``reliable:=true``), ``tactile/sensor_info`` (forte_msgs/SensorInfo, latched: the board's
+answer to IDENTIFY, again when SET_RATE changes its rate), ``/diagnostics``
+(diagnostic_msgs/DiagnosticArray).
 """
 from __future__ import annotations
 
@@ -43,13 +45,14 @@ from forte_driver.serial import protocol
 from forte_driver.serial.protocol import Ack, Command, Info, Status
 from forte_driver.serial.reader_health import ERROR, WARN, ReaderHealth, diagnostics_level
 from forte_driver.serial.sensor_stream import SensorStream, StampedBatch
-from forte_msgs.msg import TactileFrames
+from forte_msgs.msg import SensorInfo, TactileFrames
 from forte_ros import ForteLifecycleNode, diagnostics, publish_quietly, run_node
 from forte_ros.contract import CHANNEL_NAMES
-from forte_ros.qos import DIAGNOSTICS, frames_profile
+from forte_ros.qos import DIAGNOSTICS, SENSOR_INFO, frames_profile
 
 FRAMES_TOPIC = 'tactile/frames'
 DIAGNOSTICS_TOPIC = '/diagnostics'
+SENSOR_INFO_TOPIC = 'tactile/sensor_info'
 #: StreamAssembler counters reported in /diagnostics under their attribute names.
 ASSEMBLER_COUNTERS = ('samples', 'dropped_frames', 'corrupt_frames', 'implausible_frames',
                       'duplicate_frames', 'late_frames', 'device_overruns', 'restarts')
@@ -87,6 +90,8 @@ class SerialSensorNode(ForteLifecycleNode):
         self.late = {'late_publishes': 0}
         self._diagnostics_publisher = self.create_publisher(
             DiagnosticArray, DIAGNOSTICS_TOPIC, DIAGNOSTICS)
+        self._sensor_info_publisher = self.create_publisher(
+            SensorInfo, SENSOR_INFO_TOPIC, SENSOR_INFO)
         self._token = 0
         self._start_token: int | None = None
         self._start_sent_at = 0.0
@@ -352,6 +357,15 @@ class SerialSensorNode(ForteLifecycleNode):
             self._on_ack(item)
         elif isinstance(item, Info):
             self._info = item
+            self._publish_identity()
+
+    def _publish_identity(self) -> None:
+        """Latch the board's identity on ``tactile/sensor_info`` (reader thread)."""
+        identity = protocol.sensor_identity(self._info, self._rate_acknowledged_hz)
+        message = SensorInfo(**identity.to_dict())
+        message.header.stamp = self.get_clock().now().to_msg()
+        message.header.frame_id = str(self.get_parameter('frame_id').value)
+        publish_quietly(self._sensor_info_publisher, message, self.context, self.late)
 
     def _on_ack(self, ack: Ack) -> None:
         if ack.command == Command.START:
@@ -364,7 +378,10 @@ class SerialSensorNode(ForteLifecycleNode):
                 self._send_start()
         elif ack.command == Command.SET_RATE:
             if ack.status == Status.OK:
+                changed = ack.value != self._rate_acknowledged_hz
                 self._rate_acknowledged_hz = ack.value
+                if changed and self._info is not None:
+                    self._publish_identity()
             else:
                 self._last_error = (f'SET_RATE {self._rate_hz} Hz refused (status '
                                     f'{ack.status}); device rate {ack.value} Hz')

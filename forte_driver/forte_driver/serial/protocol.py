@@ -29,7 +29,8 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import NamedTuple
 
-from forte_ros.contract import COUNTS_PER_FULL_SCALE, N_CHANNELS
+from forte_ros.contract import CHANNEL_NAMES, COUNTS_PER_FULL_SCALE, N_CHANNELS
+from forte_ros.sensor_identity import SensorIdentity
 
 SYNC0 = 0xA5
 SYNC1 = 0x5A
@@ -464,3 +465,30 @@ def normalise_adc_code(code: int, zero_code: int, half_span_code: int) -> tuple[
     if value < -COUNTS_PER_FULL_SCALE:
         return -COUNTS_PER_FULL_SCALE, True
     return value, False
+
+
+def sensor_identity(info: Info, rate_hz: int | None = None) -> SensorIdentity:
+    """The sensor identity of an IDENTIFY answer (forte_msgs/SensorInfo's fields).
+
+    Parameters
+    ----------
+    info : Info
+        The board's answer to IDENTIFY.
+    rate_hz : int, optional
+        The rate the board acknowledged since (SET_RATE) [Hz]; default ``info.rate_hz``.
+
+    Returns
+    -------
+    SensorIdentity
+        ``device_id`` as 16 hex digits, firmware ``'major.minor.patch'``; the channel order
+        of docs/contracts.md for a six-channel board, ``channel_<k>`` names otherwise (so a
+        board of another size never matches a FORTE model).
+    """
+    names = CHANNEL_NAMES if info.channel_count == N_CHANNELS else tuple(
+        f'channel_{index}' for index in range(info.channel_count))
+    return SensorIdentity(
+        source='serial', device_id=f'{info.device_id:016x}',
+        firmware='.'.join(str(part) for part in info.firmware_version),
+        protocol_version=info.protocol_version,
+        sample_rate=float(info.rate_hz if rate_hz is None else rate_hz), channel_names=names,
+        counts_per_full_scale=info.counts_per_full_scale, adc_bits=info.adc_bits)

@@ -7,6 +7,14 @@ at the default 100 Hz; a 200-sample message gives 10 states, so the force rate d
 depend on the driver's batch size), serves ``perception/tare`` (forte_msgs/srv/Tare) and
 ``perception/reset`` (std_srvs/srv/Trigger), and publishes ``/diagnostics`` at 1 Hz.
 
+Model identity: the force model's ``metadata['sensor']`` (what ``forte_train_force``
+recorded) is checked with :func:`forte_ros.sensor_identity.check_identity`, at load against
+the ``sample_rate`` parameter and the contract's channel order (a mismatch refuses the
+``model_path``), and again whenever the sensor identifies itself on ``tactile/sensor_info``
+(forte_msgs/SensorInfo, latched): another rate, channel order or full scale -> the model is
+not used (``force_valid`` false, diagnostics ERROR ``force model refused: ...``); another
+device or firmware -> the model is used, diagnostics WARN (recalibrate).
+
 Input checks (each counted, reported in diagnostics, never invented):
 
 - ``first_sequence`` must continue the previous message (``previous first_sequence +
@@ -49,7 +57,7 @@ from rclpy.node import Node
 from rclpy.task import Future
 from std_srvs.srv import Trigger
 
-from forte_msgs.msg import TactileFrames, TactileState
+from forte_msgs.msg import SensorInfo, TactileFrames, TactileState
 from forte_msgs.srv import Tare
 from forte_perception.channel_health import channel_report
 from forte_perception.force import ForceModel
@@ -59,7 +67,8 @@ from forte_ros.contract import CHANNEL_NAMES
 from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
 from forte_ros.parameter_table import ParameterSpec, parameter_table, replace_fields
 from forte_ros.parameters import declare_table, parameter_update, read_table
-from forte_ros.qos import DIAGNOSTICS, SENSOR_FRAMES, TACTILE_STATE
+from forte_ros.qos import DIAGNOSTICS, SENSOR_FRAMES, SENSOR_INFO, TACTILE_STATE
+from forte_ros.sensor_identity import IdentityCheck, SensorIdentity, check_identity
 
 #: Every parameter of the node, in the order of declaration. Defaults: the fields of
 #: :class:`PipelineConfig` (``field``; ``slip.*`` of its ``SlipParams``), the node-only
@@ -132,16 +141,35 @@ def build_config(values: dict) -> PipelineConfig:
     return config
 
 
-def load_model(path: str) -> ForceModel | None:
-    """The model at ``path`` ('' = none); raises ValueError with a reason."""
+def expected_sensor(sample_rate: float) -> SensorIdentity:
+    """What the node expects before the sensor identifies itself: its ``sample_rate``
+    parameter [Hz] and the contract's channel order and full scale, any device."""
+    return SensorIdentity(source='', device_id='', sample_rate=sample_rate)
+
+
+def model_check(model: ForceModel | None, sensor: SensorIdentity) -> IdentityCheck:
+    """:func:`check_identity` of ``model``'s ``metadata['sensor']`` (none: nothing to check)."""
+    if model is None:
+        return IdentityCheck()
+    return check_identity(model.metadata.get('sensor', {}), sensor)
+
+
+def load_model(path: str, sample_rate: float | None = None) -> ForceModel | None:
+    """The model at ``path`` ('' = none); raises ValueError with a reason, also when the
+    model was trained at another rate than ``sample_rate`` [Hz] or on another channel order."""
     if not path:
         return None
     if not Path(path).is_file():
         raise ValueError(f'model_path {path!r}: no such file')
     try:
-        return ForceModel.load(path)
+        model = ForceModel.load(path)
     except (OSError, ValueError, KeyError) as exc:
         raise ValueError(f'model_path {path!r}: {exc}') from exc
+    if sample_rate is not None:
+        refusals = model_check(model, expected_sensor(sample_rate)).refusals
+        if refusals:
+            raise ValueError(f'model_path {path!r} refused: ' + '; '.join(refusals))
+    return model
 
 
 class PerceptionNode(Node):
@@ -154,8 +182,11 @@ class PerceptionNode(Node):
         self._lock = threading.RLock()
         self._sample_rate = float(self.get_parameter('sample_rate').value)
         config = build_config(read_table(self, PARAMETERS))  # raises: bad YAML stops the node
-        model = load_model(str(self.get_parameter('model_path').value))
-        self._pipeline = PerceptionPipeline(config, model)
+        model = load_model(str(self.get_parameter('model_path').value), self._sample_rate)
+        self._pipeline = PerceptionPipeline(config, None)
+        self._model: ForceModel | None = None      # the configured model, used or refused
+        self._sensor: SensorIdentity | None = None  # from tactile/sensor_info
+        self._identity = IdentityCheck()
         self._frame_id = str(self.get_parameter('frame_id').value)
         self._stale_timeout = float(self.get_parameter('stale_timeout').value)
         self._expected_sequence: int | None = None
@@ -182,6 +213,9 @@ class PerceptionNode(Node):
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', DIAGNOSTICS)
         self.create_subscription(TactileFrames, 'tactile/frames', self._on_frames,
                                  SENSOR_FRAMES, callback_group=self._group)
+        self.create_subscription(SensorInfo, 'tactile/sensor_info', self._on_sensor_info,
+                                 SENSOR_INFO, callback_group=self._group)
+        self._use_model(model)
         self.create_service(Tare, 'perception/tare', self._on_tare,
                             callback_group=self._service_group)
         self.create_service(Trigger, 'perception/reset', self._on_reset,
@@ -209,10 +243,10 @@ class PerceptionNode(Node):
                 except (ValueError, TypeError) as exc:
                     return SetParametersResult(successful=False, reason=str(exc))
             model_change = 'model_path' in changes
-            model = self._pipeline.model
+            model = self._model
             if model_change:
                 try:
-                    model = load_model(changes['model_path'])
+                    model = load_model(changes['model_path'], self._sample_rate)
                 except ValueError as exc:
                     return SetParametersResult(successful=False, reason=str(exc))
             stale = changes.get('stale_timeout')
@@ -223,7 +257,7 @@ class PerceptionNode(Node):
                 self._pipeline.reset()
                 self.get_logger().info('pipeline parameters changed: pipeline restarted')
             if model_change:
-                self._pipeline.set_model(model)
+                self._use_model(model)
                 self.get_logger().info(
                     f'force model {"loaded" if model is not None else "removed"}')
             if stale is not None:
@@ -233,6 +267,34 @@ class PerceptionNode(Node):
                                                       callback_group=self._group)
             self._frame_id = changes.get('frame_id', self._frame_id)
         return SetParametersResult(successful=True)
+
+    # ------------------------------------------------------------------ model identity
+    def _use_model(self, model: ForceModel | None) -> None:
+        """Check ``model`` against the sensor (its identity once known, else what the node
+        expects) and use it unless refused (caller holds the lock or is the constructor)."""
+        self._model = model
+        sensor = self._sensor or expected_sensor(self._sample_rate)
+        self._identity = model_check(model, sensor)
+        self._pipeline.set_model(model if self._identity.usable else None)
+        for reason in self._identity.refusals:
+            self.get_logger().error(f'force model refused: {reason}')
+        for warning in self._identity.warnings:
+            self.get_logger().warning(f'force model: {warning}')
+
+    def _on_sensor_info(self, message: SensorInfo) -> None:
+        try:
+            sensor = SensorIdentity.from_message(message)
+        except ValueError as exc:
+            self.get_logger().error(f'tactile/sensor_info ignored: {exc}')
+            return
+        with self._lock:
+            if sensor == self._sensor:
+                return
+            self._sensor = sensor
+            self.get_logger().info(
+                f'sensor {sensor.device_id or "(unknown)"} ({sensor.source}, firmware '
+                f'{sensor.firmware or "unknown"}, {sensor.sample_rate:g} Hz)')
+            self._use_model(self._model)
 
     # ------------------------------------------------------------------ frames
     def _reject(self, reason: str) -> None:
@@ -417,7 +479,9 @@ class PerceptionNode(Node):
             out = self._last_output
             stale = now - self._last_input > self._stale_timeout
             level, message = OK, 'ok'
-            if out is None:
+            if self._identity.refusals:
+                level, message = ERROR, 'force model refused: ' + self._identity.refusals[0]
+            elif out is None:
                 level, message = WARN, 'no input yet'
             elif stale:
                 level, message = ERROR, 'input stale'
@@ -425,10 +489,17 @@ class PerceptionNode(Node):
                 level, message = WARN, 'not tared yet'
             elif self._pipeline.model is None:
                 level, message = WARN, 'no force model'
+            elif self._identity.warnings:
+                level, message = WARN, self._identity.warnings[0]
+            trained = self._model.metadata.get('sensor', {}) if self._model else {}
             values = {
                 'input messages/s': f'{rate:.1f}',
                 'tared': str(bool(out.tared) if out else False),
-                'force model': 'loaded' if self._pipeline.model is not None else 'none',
+                'force model': ('refused' if self._identity.refusals else
+                                'loaded' if self._pipeline.model is not None else 'none'),
+                'model trained on device': str(trained.get('device_id', 'unrecorded')),
+                'sensor device': self._sensor.device_id if self._sensor else 'unidentified',
+                'sensor firmware': self._sensor.firmware if self._sensor else '',
                 'last reject reason': self._last_reject_reason,
                 'processing p50 [us]': f'{np.percentile(proc, 50):.0f}' if proc.size else '',
                 'processing p99 [us]': f'{np.percentile(proc, 99):.0f}' if proc.size else '',
@@ -462,4 +533,5 @@ if __name__ == '__main__':
     raise SystemExit(main())
 
 
-__all__ = ['PerceptionNode', 'build_config', 'load_model', 'main']
+__all__ = ['PerceptionNode', 'build_config', 'expected_sensor', 'load_model', 'main',
+           'model_check']

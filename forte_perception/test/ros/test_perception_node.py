@@ -14,13 +14,15 @@ from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_srvs.srv import Trigger
 
-from forte_msgs.msg import TactileFrames, TactileState
+from forte_msgs.msg import SensorInfo, TactileFrames, TactileState
 from forte_msgs.srv import Tare
 from forte_perception.force import ForceModel
 from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
 from forte_perception.ros.perception_node import PerceptionNode
 from forte_perception.slip.params import SlipParams
 from forte_ros.contract import CHANNEL_NAMES
+from forte_ros.qos import SENSOR_INFO
+from forte_ros.sensor_identity import SIMULATED_SENSOR, SensorIdentity
 
 CHUNK = 20
 
@@ -130,6 +132,16 @@ def model_file(tmp_path):
     x = rng.uniform(-0.3, 0.3, size=(400, 24))
     model = ForceModel.fit(x, 4.0 + 10.0 * x[:, :6].sum(axis=1), force_range=(0.0, 8.0))
     path = tmp_path / 'force.npz'
+    model.save(path)
+    return path
+
+
+def trained_model(path, sensor: dict):
+    """The fixture's model with ``metadata['sensor'] = sensor``, saved at ``path``."""
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-0.3, 0.3, size=(400, 24))
+    model = ForceModel.fit(x, 4.0 + 10.0 * x[:, :6].sum(axis=1), force_range=(0.0, 8.0),
+                           metadata={'sensor': sensor})
     model.save(path)
     return path
 
@@ -409,3 +421,57 @@ def test_large_messages_give_a_state_per_force_instant(harness):
     harness.pub.publish(harness.message(x[207:260]))  # force instants at 219, 239, 259
     harness.wait_states(before + 3)
     assert [s.sample_index for s in harness.states[before:]] == [219, 239, 259]
+
+
+def pipeline_status(harness, after: int, timeout: float = 5.0) -> DiagnosticStatus:
+    """The pipeline status of the first /diagnostics received after ``after`` arrays."""
+    deadline = time.monotonic() + timeout
+    while len(harness.diagnostics) <= after:
+        assert time.monotonic() < deadline, 'no diagnostics'
+        time.sleep(0.05)
+    return harness.diagnostics[after].status[0]
+
+
+def test_a_model_trained_at_another_rate_is_refused(harness, tmp_path):
+    slow = trained_model(tmp_path / 'slow.npz', dict(SIMULATED_SENSOR.to_dict(),
+                                                     sample_rate=1000.0))
+    result = harness.node.set_parameters([Parameter('model_path', value=str(slow))])[0]
+    assert not result.successful and '1000 Hz' in result.reason
+    assert harness.node._pipeline.model is not None  # the previous model stays
+
+
+def test_the_sensor_identity_decides_whether_the_model_is_used(harness, tmp_path):
+    """A model trained on the simulator: on a board it is used with a WARN (recalibrate);
+    on a board whose channel order differs it is refused (force_valid false, ERROR)."""
+    sim_model = trained_model(tmp_path / 'sim.npz', SIMULATED_SENSOR.to_dict())
+    assert harness.node.set_parameters(
+        [Parameter('model_path', value=str(sim_model))])[0].successful
+    board = SensorIdentity(source='serial', device_id='00000000c0ffee01', firmware='1.0.0',
+                           protocol_version=1, adc_bits=12)
+    info = harness.peer.create_publisher(SensorInfo, 'tactile/sensor_info', SENSOR_INFO)
+    info.publish(SensorInfo(**board.to_dict()))
+    x = stream()
+    for i in range(0, 4000, CHUNK):
+        harness.send(x[i:i + CHUNK])
+    assert harness.states[-1].force_valid
+    status = pipeline_status(harness, len(harness.diagnostics))
+    values = {kv.key: kv.value for kv in status.values}
+    assert status.level == DiagnosticStatus.WARN and 'recalibrate' in status.message
+    assert values['sensor device'] == board.device_id
+    assert values['model trained on device'] == 'simulator'
+    assert values['force model'] == 'loaded'
+
+    rewired = SensorIdentity(source='serial', device_id=board.device_id,
+                             channel_names=CHANNEL_NAMES[3:] + CHANNEL_NAMES[:3])
+    info.publish(SensorInfo(**rewired.to_dict()))
+    deadline = time.monotonic() + 5.0
+    while harness.node._sensor != rewired:
+        assert time.monotonic() < deadline, 'sensor info not received'
+        time.sleep(0.02)
+    for i in range(4000, 5000, CHUNK):
+        harness.send(x[i:i + CHUNK])
+    assert not any(state.force_valid for state in harness.states[-40:])
+    status = pipeline_status(harness, len(harness.diagnostics))
+    assert status.level == DiagnosticStatus.ERROR
+    assert status.message.startswith('force model refused: model channel order')
+    assert {kv.key: kv.value for kv in status.values}['force model'] == 'refused'

@@ -9,7 +9,10 @@ import pytest
 from rclpy.parameter import Parameter
 from serial_node_harness import Harness, check_batches_are_gap_free_and_true
 
+from forte_msgs.msg import SensorInfo
 from forte_ros.contract import CHANNEL_NAMES
+from forte_ros.qos import SENSOR_INFO
+from forte_ros.sensor_identity import SensorIdentity
 from forte_sim.bench_devices.emulated_sensor import EmulatedSensor, FaultPlan
 
 
@@ -172,3 +175,24 @@ def test_diagnostics_report_rate_drops_and_corruption(link):
         assert int(table['corrupt_frames']) > 0
         assert float(table['latency_mean_ms']) >= 0.0
         assert table['device_id'] == f'{0xF0E7E500 + 26:016x}'
+
+
+def test_the_board_identity_is_latched_on_sensor_info(link):
+    """IDENTIFY's answer becomes forte_msgs/SensorInfo on tactile/sensor_info: a subscriber
+    that joins after it was sent still gets it (transient local), and a SET_RATE to another
+    rate publishes it again with the acknowledged rate."""
+    with (EmulatedSensor(link, seed=27),
+          Harness(link, sample_rate_hz=1000) as harness):
+        harness.node.trigger_configure()
+        assert harness.wait(lambda: harness.node._info is not None, 10.0)
+        time.sleep(0.2)
+        late = harness.ros.collect(SensorInfo, 'tactile/sensor_info', SENSOR_INFO)
+        assert harness.wait(lambda: len(late) >= 1, 10.0), 'no latched sensor info'
+        first = SensorIdentity.from_message(late[0])
+        assert first == SensorIdentity(
+            source='serial', device_id=f'{0xF0E7E500 + 27:016x}', firmware='1.0.0',
+            protocol_version=1, sample_rate=2000.0, channel_names=CHANNEL_NAMES,
+            counts_per_full_scale=1024, adc_bits=12)
+        harness.node.trigger_activate()
+        assert harness.wait(lambda: len(late) >= 2, 10.0), 'no identity at the new rate'
+        assert SensorIdentity.from_message(late[-1]).sample_rate == 1000.0
