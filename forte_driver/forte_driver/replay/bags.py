@@ -83,6 +83,7 @@ class TopicSpec:
 #: The contract's topics (docs/contracts.md) that a FORTE recording holds by default.
 DEFAULT_TOPICS: tuple[TopicSpec, ...] = (
     TopicSpec('tactile/frames', 'forte_msgs/msg/TactileFrames', reliable=False, depth=50),
+    TopicSpec('tactile/sensor_info', 'forte_msgs/msg/SensorInfo', transient_local=True, depth=1),
     TopicSpec('tactile/state', 'forte_msgs/msg/TactileState', depth=50),
     TopicSpec('gripper/command', 'forte_msgs/msg/ServoCommand'),
     TopicSpec('joint_states', 'sensor_msgs/msg/JointState'),

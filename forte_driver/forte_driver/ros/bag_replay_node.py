@@ -36,7 +36,7 @@ from forte_ros import publish_quietly, run_node
 from forte_ros.diagnostics import ERROR, OK, diagnostic_array, diagnostic_status
 from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameters import declare_table, parameter_update
-from forte_ros.qos import DIAGNOSTICS, GRASP_STATE, SENSOR_FRAMES, reliable
+from forte_ros.qos import DIAGNOSTICS, GRASP_STATE, SENSOR_FRAMES, SENSOR_INFO, reliable
 
 #: History depth of the reliable replay publishers [messages] (about 100 s of frames).
 RELIABLE_DEPTH = 10000
@@ -164,6 +164,8 @@ class BagReplayNode(Node):
         name = relative_name(topic)
         if name == 'grasp/state':
             return GRASP_STATE
+        if name == 'tactile/sensor_info':
+            return SENSOR_INFO  # latched: perception checks its model against the recording's
         if name == 'tactile/frames' and not self.reliable:
             return SENSOR_FRAMES  # sensor data, depth as in docs/contracts.md
         # Reliable with a deep history: at rate 0 the writer runs far ahead of the readers'
