@@ -37,6 +37,7 @@ setup(
             'perception_node = forte_perception.ros.perception_node:main',
             'forte_train_force = forte_perception.tools.train_force:main',
             'forte_evaluate_slip = forte_perception.tools.evaluate_slip:main',
+            'forte_tune_slip = forte_perception.tools.tune_slip:main',
         ],
     },
 )

@@ -44,6 +44,7 @@ from forte_bringup.graph import (
     GraphSpec,
     NodeSpec,
     argument_settings,
+    overlay_nodes,
     parameter_text,
     params_file,
 )
@@ -89,6 +90,7 @@ def node_command(
     arguments: dict[str, str],
     executable: str | None = None,
     graph: GraphSpec | None = None,
+    overlay: Path | None = None,
 ) -> list[str]:
     """Command line of one node: executable and ``--ros-args`` as the launch file sets them.
 
@@ -104,6 +106,8 @@ def node_command(
         Path of the executable (default: :func:`find_executable`).
     graph : GraphSpec, optional
         The graph whose argument kinds type the values (default: text as given).
+    overlay : Path, optional
+        Parameter overlay for this node, loaded after ``params`` (``params_overlay``).
 
     Raises
     ------
@@ -112,6 +116,8 @@ def node_command(
     """
     command = [executable or find_executable(spec.package, spec.executable), '--ros-args',
                '-r', f'__node:={spec.name}', '--params-file', str(params)]
+    if overlay is not None:
+        command += ['--params-file', str(overlay)]
     try:
         remappings, parameters = argument_settings(spec, arguments, graph)
     except ValueError as error:
@@ -227,6 +233,12 @@ class Bringup:
         self.params = Path(params or given or params_file(graph))
         if not self.params.is_file():
             raise BringupError(f'parameter file {self.params} does not exist')
+        overlay = self.arguments.get('params_overlay', '')
+        try:
+            self.overlay_nodes = overlay_nodes(overlay, self.graph) if overlay else set()
+        except ValueError as error:
+            raise BringupError(str(error)) from error
+        self.overlay = Path(overlay) if overlay else None
         if graph == 'replay' and not self.arguments.get('bag'):
             raise BringupError('the replay graph needs bag:=<bag folder or .mcap file>')
         self.extra_parameters = extra_parameters or {}
@@ -245,7 +257,9 @@ class Bringup:
         """Command line of every process of the graph (nodes, then the recorder)."""
         out = {}
         for spec in self.graph.nodes:
-            command = node_command(spec, self.params, self.arguments, graph=self.graph)
+            overlay = self.overlay if {spec.name, '/**'} & self.overlay_nodes else None
+            command = node_command(spec, self.params, self.arguments, graph=self.graph,
+                                   overlay=overlay)
             for parameter, value in self.extra_parameters.get(spec.name, {}).items():
                 command += ['-p', f'{parameter}:={parameter_text(value)}']
             out[spec.name] = command

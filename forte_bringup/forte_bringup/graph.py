@@ -197,6 +197,8 @@ COMMON_ARGUMENTS = (
              'commands (TwistStamped), e.g. /servo_node/delta_twist_cmds for MoveIt Servo'),
     Argument('record', 'false', 'also record the graph topics to an MCAP bag (forte_record)'),
     Argument('bag_output', '', 'bag folder to record to (default out/bags/forte_<time>)'),
+    Argument('params_overlay', '', 'second parameter YAML applied after params_file to the '
+             'nodes it names (e.g. the slip setting written by forte_tune_slip); empty: none'),
 )
 
 GRAPHS: dict[str, GraphSpec] = {
@@ -266,6 +268,45 @@ GRAPHS: dict[str, GraphSpec] = {
         ),
     ),
 }
+
+
+def overlay_nodes(path: str | Path, graph: GraphSpec) -> set[str]:
+    """The node names a parameter overlay sets parameters of.
+
+    Parameters
+    ----------
+    path : str
+        The overlay YAML.
+    graph : GraphSpec
+        The graph it is applied to.
+
+    Returns
+    -------
+    set of str
+        Its top-level keys (node names, or ``/**`` for every node).
+
+    Raises
+    ------
+    ValueError
+        Unreadable file, not a mapping of node names to ``{ros__parameters: mapping}``, or
+        a node name the graph does not have (the message names the file and the reason).
+    """
+    try:
+        document = yaml.safe_load(Path(path).read_text(encoding='utf-8'))
+    except (OSError, yaml.YAMLError) as exc:
+        raise ValueError(f'params_overlay {path!r}: cannot read it ({exc})') from exc
+    if not isinstance(document, dict) or not document:
+        raise ValueError(f'params_overlay {path!r}: expected node_name: {{ros__parameters: '
+                         '{...}} blocks')
+    known = {spec.name for spec in graph.nodes} | {'/**'}
+    for node, block in document.items():
+        if node not in known:
+            raise ValueError(f'params_overlay {path!r}: the {graph.name} graph has no node '
+                             f'{node!r} (nodes: {", ".join(sorted(known))})')
+        if not isinstance(block, dict) or not isinstance(block.get('ros__parameters'), dict):
+            raise ValueError(f'params_overlay {path!r}: {node}: expected a ros__parameters '
+                             'mapping')
+    return set(document)
 
 
 def config_folder() -> Path:

@@ -9,6 +9,14 @@ and a refused configure or activate is asked for again as forte_bringup does.
 The recorder (``record:=true``) is a launch_ros ``Node`` too: launch_ros finds the
 ``forte_record`` console script in ``lib/forte_bringup/`` as ``ros2 run`` does (colcon does
 not put it on ``PATH``).
+
+``params_overlay:=FILE`` (every graph): a second parameter YAML
+loaded after ``params_file`` by every node it names, so its values override the main YAML
+(the arguments that set parameters, e.g. ``force_model:=``, and the graph's fixed parameters
+still come last). Its top-level keys must be node names of the graph (or ``/**``), each with
+a ``ros__parameters`` mapping; anything else stops the launch with the reason. Written e.g.
+by the slip threshold tuning (``forte_tune_slip``,
+``python -m forte_bringup.procedures.slip_characterisation``).
 """
 from __future__ import annotations
 
@@ -37,11 +45,13 @@ from forte_bringup.graph import (
     TRANSITION_RETRY_DELAY,
     NodeSpec,
     argument_settings,
+    overlay_nodes,
 )
 
 
 def _node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
-                  overrides: dict[str, object], params_file: str) -> list[Action]:
+                  overrides: dict[str, object], params_file: str,
+                  overlay: str = '') -> list[Action]:
     """The actions that start one node (and drive it if it is a lifecycle node).
 
     Parameters
@@ -55,6 +65,8 @@ def _node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
         the node's fixed parameters are added here.
     params_file : str
         Parameter YAML of the graph.
+    overlay : str
+        Parameter overlay YAML loaded after ``params_file`` ('' = none).
 
     Returns
     -------
@@ -64,7 +76,8 @@ def _node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
         it.
     """
     overrides = {**overrides, **dict(spec.fixed_parameters)}
-    parameters = [params_file] + ([overrides] if overrides else [])
+    parameters = [params_file] + ([overlay] if overlay else []) + (
+        [overrides] if overrides else [])
     if not spec.lifecycle:
         return [Node(package=spec.package, executable=spec.executable, name=spec.name,
                      namespace='', parameters=parameters, remappings=remappings,
@@ -172,10 +185,13 @@ def graph_launch_description(graph_name: str) -> LaunchDescription:
         params_file = LaunchConfiguration('params_file').perform(context)
         arguments = {argument.name: LaunchConfiguration(argument.name).perform(context)
                      for argument in graph.arguments}
+        overlay = arguments['params_overlay']
+        named = overlay_nodes(overlay, graph) if overlay else set()
         actions = []
         for spec in graph.nodes:
             actions += _node_actions(spec, *argument_settings(spec, arguments, graph),
-                                     params_file)
+                                     params_file,
+                                     overlay if {spec.name, '/**'} & named else '')
         if IfCondition(LaunchConfiguration('record')).evaluate(context):
             actions.append(_recorder_action(context))
         return actions

@@ -4,6 +4,9 @@ nodes, configured and activated on start), perception, grasp control.
     ros2 launch forte_bringup hardware.launch.py sensor_port:=/dev/forte_sensor \\
         gripper_port:=/dev/forte_gripper arm_cmd_vel_topic:=/servo_node/delta_twist_cmds
 
+``params_overlay:=FILE`` loads a second parameter YAML after the graph's own, for the
+nodes it names (e.g. the slip setting of forte_tune_slip; forte_bringup.launch_support;
+ros2 launch only: `forte_bringup hardware` does not take it yet).
 Nodes, parameter file and arguments come from forte_bringup.graph.GRAPHS['hardware'], the same
 description that `forte_bringup hardware` starts on a machine without ros2 launch.
 `ros2 launch forte_bringup hardware.launch.py --show-args` lists the arguments.

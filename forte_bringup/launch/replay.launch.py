@@ -3,6 +3,9 @@ with dry_run:=true so that no servo or arm command moves anything.
 
     ros2 launch forte_bringup replay.launch.py bag:=out/bags/run1 rate:=1.0
 
+``params_overlay:=FILE`` loads a second parameter YAML after the graph's own, for the
+nodes it names (e.g. the slip setting of forte_tune_slip; forte_bringup.launch_support;
+ros2 launch only: `forte_bringup replay` does not take it yet).
 Nodes, parameter file and arguments come from forte_bringup.graph.GRAPHS['replay'], the same
 description that `forte_bringup replay` starts on a machine without ros2 launch.
 `ros2 launch forte_bringup replay.launch.py --show-args` lists the arguments.

@@ -3,6 +3,9 @@ grasp control.
 
     ros2 launch forte_bringup sim.launch.py object:=soda_can record:=true
 
+``params_overlay:=FILE`` loads a second parameter YAML after the graph's own, for the
+nodes it names (e.g. the slip setting of forte_tune_slip; forte_bringup.launch_support;
+ros2 launch only: `forte_bringup sim` does not take it yet).
 Nodes, parameter file and arguments come from forte_bringup.graph.GRAPHS['sim'], the same
 description that `forte_bringup sim` starts on a machine without ros2 launch.
 `ros2 launch forte_bringup sim.launch.py --show-args` lists the arguments.

@@ -63,6 +63,25 @@ def test_node_command_matches_the_launch_description():
                      graph=replay)
 
 
+def test_the_overlay_goes_after_the_yaml_of_the_nodes_it_names(tmp_path):
+    """params_overlay: a second --params-file after the graph's YAML, for the nodes the
+    overlay names only (as the launch files do); a bad overlay refuses to start."""
+    overlay = tmp_path / 'slip.yaml'
+    overlay.write_text('perception:\n  ros__parameters:\n    slip_threshold: 1.5\n')
+    bringup = Bringup('sim', {'params_overlay': str(overlay)}, log_dir=tmp_path, echo=None)
+    commands = bringup.commands()
+    perception = commands['perception']
+    files = [perception[i + 1] for i, item in enumerate(perception) if item == '--params-file']
+    assert files == [str(params_file('sim')), str(overlay)]
+    assert commands['sim'].count('--params-file') == 1
+    overlay.write_text('planner:\n  ros__parameters:\n    speed: 1\n')
+    with pytest.raises(BringupError, match="no node 'planner'"):
+        Bringup('sim', {'params_overlay': str(overlay)}, log_dir=tmp_path, echo=None)
+    with pytest.raises(BringupError, match='cannot read'):
+        Bringup('sim', {'params_overlay': str(tmp_path / 'absent.yaml')}, log_dir=tmp_path,
+                echo=None)
+
+
 def test_argument_values_keep_their_parameter_type():
     sim = GRAPHS['sim']
     assert sim.argument('seed').typed('7') == 7

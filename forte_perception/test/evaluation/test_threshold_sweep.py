@@ -1,0 +1,199 @@
+"""The threshold sweep, its recommendation rule, the overlay and forte_tune_slip.
+
+Known answer: a recording whose labelled slips are strong PSD rises and whose unlabelled
+distractors are weak ones. A low T flags the distractors too (precision drops), a very high
+T flags nothing (recall 0), the T between the two peaks is right.
+"""
+import math
+
+import numpy as np
+import pytest
+from perception_signals import FS, slip_bursts
+
+from forte_perception.evaluation.onset_labels import write_onset_csv
+from forte_perception.evaluation.recordings import LabelledRecording, load_labelled, save_labelled
+from forte_perception.evaluation.slip_metrics import TrialScores
+from forte_perception.evaluation.threshold_sweep import (
+    NODE_PARAMETERS,
+    SweepRow,
+    node_settable,
+    overlay,
+    overlay_yaml,
+    parameter_grid,
+    params_from_overlay,
+    prefilter,
+    recommend,
+    sweep,
+    table,
+)
+from forte_perception.median import running_median
+from forte_perception.slip.detector import SlipParams, slip_features
+from forte_perception.tools import tune_slip
+
+N = 12000
+SLIPS = (3000, 9000)         # labelled: strong rise (1000 dB/s)
+DISTRACTORS = (6000,)        # unlabelled: weak rise (60 dB/s)
+PAPER = SlipParams(mode='paper')
+
+
+def known_answer_recording() -> LabelledRecording:
+    """Two trials; trial 0 has the slips and the distractor, trial 1 only a distractor."""
+    strong = slip_bursts(N, seed=1, onsets=SLIPS, growth_db_per_s=1000.0)
+    weak = slip_bursts(N, seed=2, onsets=DISTRACTORS, growth_db_per_s=60.0, noise=0.0)
+    quiet_trial = slip_bursts(N, seed=3, onsets=DISTRACTORS, growth_db_per_s=60.0)
+    frames = np.concatenate([strong + weak, quiet_trial]) + 0.1
+    trial = np.repeat([0, 1], N)
+    return LabelledRecording(frames, FS, np.array(SLIPS), trial, name='known.npz')
+
+
+def peak_variance(frames: np.ndarray, lo: int, hi: int) -> float:
+    res = slip_features(running_median(frames, 11), fs=FS, params=replace_threshold(PAPER, 1e9))
+    inside = (res.sample_index >= lo) & (res.sample_index < hi)
+    return float(res.finger_variance[inside].max())
+
+
+def replace_threshold(params: SlipParams, value: float) -> SlipParams:
+    from dataclasses import replace
+    return replace(params, threshold=value)
+
+
+def test_sweep_finds_the_obvious_threshold(capsys):
+    rec = known_answer_recording()
+    weak = peak_variance(rec.frames[:N], 6000, 7000)
+    strong = min(peak_variance(rec.frames[:N], s, s + 1000) for s in SLIPS)
+    assert 2.0 < weak < 25.0 < strong < 200.0, (weak, strong)  # the premise of the answer
+    settings, skipped = parameter_grid(PAPER, {'threshold': (2.0, 25.0, 200.0)}, FS)
+    assert not skipped and len(settings) == 3
+    rows = sweep([rec], settings)
+    low, middle, high = rows
+    print('\n' + table(rows, middle))
+    assert low.false_runs >= 2 and low.precision < 0.9 and low.recall == 1.0
+    assert (middle.detected, middle.onsets, middle.false_runs) == (2, 2, 0)
+    assert middle.precision == 1.0 and middle.f1 == 1.0
+    assert 0.0 < middle.latency(50) < 0.1
+    assert middle.trials.true_positive == 1 and middle.trials.true_negative == 1
+    assert high.runs == 0 and high.recall == 0.0 and math.isnan(high.precision)
+    choice = recommend(rows)
+    assert choice.row is middle and choice.floor_met
+    assert overlay(choice.row.params) == {'perception': {'ros__parameters': {
+        'slip_mode': 'paper', 'slip_threshold': 25.0}}}
+
+
+def test_mask_and_prefilter():
+    rec = known_answer_recording()
+    mask = np.zeros(2 * N, bool)
+    mask[:5000] = True                  # only the first slip's part is evaluated
+    masked = LabelledRecording(rec.frames, FS, rec.onsets, rec.trial, name='m', mask=mask)
+    (row,) = sweep([masked], [(replace_threshold(PAPER, 25.0), {})])
+    assert row.detected == 1 and row.onsets == 2 and row.false_runs == 0
+    filtered = prefilter([rec])
+    assert filtered[0].filtered and prefilter(filtered)[0] is filtered[0]
+
+
+def test_parameter_grid_skips_invalid_combinations():
+    settings, skipped = parameter_grid(SlipParams(mode='robust'),
+                                       {'threshold': (2.0, 4.0),
+                                        'single_threshold': (3.0, 5.0)}, FS)
+    assert [v for _, v in settings] == [{'threshold': 2.0, 'single_threshold': 3.0},
+                                        {'threshold': 2.0, 'single_threshold': 5.0},
+                                        {'threshold': 4.0, 'single_threshold': 5.0}]
+    assert len(skipped) == 1 and 'single_threshold' in skipped[0][1]
+    with pytest.raises(ValueError, match='not slip parameters'):
+        parameter_grid(PAPER, {'thresh': (1.0,)}, FS)
+
+
+def row(threshold: float, precision_runs: tuple[int, int], detected: int,
+        latency: float, **changes) -> SweepRow:
+    from dataclasses import replace
+    runs, false = precision_runs
+    params = replace(SlipParams(), threshold=threshold, **changes)
+    return SweepRow(params, {'threshold': threshold}, 10, detected, runs, false,
+                    np.full(detected, latency), TrialScores(1, 0, 0, 0))
+
+
+def test_recommendation_rule():
+    # highest F1 among those above the precision floor
+    best = row(1.5, (10, 0), 9, 0.05)
+    assert recommend([row(1.0, (20, 5), 10, 0.04), best, row(3.0, (8, 0), 8, 0.05)]).row is best
+    # equal F1: lower latency; then T closer to the default (2.0)
+    fast = row(3.0, (10, 0), 9, 0.03)
+    assert recommend([best, fast]).row is fast
+    near = row(2.5, (10, 0), 9, 0.05)
+    assert recommend([best, near]).row is best           # |1.5 - 2| = |2.5 - 2|: grid order
+    assert recommend([row(1.0, (10, 0), 9, 0.05), near]).row is near
+    # settings the node cannot load are never recommended
+    hidden = row(2.0, (10, 0), 10, 0.01, veto_ratio=0.5)
+    assert not node_settable(hidden.params)
+    assert recommend([best, hidden]).row is best
+    with pytest.raises(ValueError, match='loaded by the perception node'):
+        recommend([hidden])
+    # no setting reaches the floor: best F1, said so
+    choice = recommend([row(1.0, (10, 5), 10, 0.05), row(2.0, (10, 6), 6, 0.05)])
+    assert not choice.floor_met and choice.row.params.threshold == 1.0
+    assert 'no setting reached the floor' in choice.rule
+
+
+def test_node_parameters_are_the_perception_nodes():
+    from forte_perception.ros.perception_node import PARAMETERS
+
+    for field, parameter in NODE_PARAMETERS.items():
+        assert PARAMETERS[parameter].field == f'slip.{field}', parameter
+    slip_fields = {spec.field[5:] for spec in PARAMETERS.values()
+                   if spec.field and spec.field.startswith('slip.')}
+    assert slip_fields == set(NODE_PARAMETERS)
+
+
+def test_overlay_text_and_round_trip():
+    params = SlipParams(threshold=1.5, alpha=0.5)
+    document = overlay(params)
+    assert document == {'perception': {'ros__parameters': {
+        'slip_mode': 'robust', 'slip_threshold': 1.5, 'slip_alpha': 0.5}}}
+    text = overlay_yaml(document, 'made by a test\nsecond line')
+    assert text.splitlines() == ['# made by a test', '# second line', 'perception:',
+                                 '  ros__parameters:', "    slip_mode: 'robust'",
+                                 '    slip_threshold: 1.5', '    slip_alpha: 0.5']
+    assert params_from_overlay(document) == params
+    assert 'slip_threshold: 1.0e-05' in overlay_yaml(overlay(SlipParams(threshold=1e-5,
+                                                                        mode='paper')))
+    with pytest.raises(ValueError, match='does not declare'):
+        overlay(SlipParams(veto_ratio=0.5))
+    with pytest.raises(ValueError, match='ros__parameters'):
+        params_from_overlay({'grasp_controller': {'ros__parameters': {}}})
+
+
+def test_tune_slip_command(tmp_path, capsys):
+    rec = known_answer_recording()
+    path = tmp_path / 'known.npz'
+    save_labelled(path, LabelledRecording(rec.frames, FS, np.zeros(0, np.int64), rec.trial))
+    assert load_labelled(path).onsets.size == 0          # the onsets come from the CSV
+    labels = tmp_path / 'labels.csv'
+    write_onset_csv(labels, {'known': np.array(SLIPS) / FS}, 'operator: test')
+    out = tmp_path / 'cfg' / 'overlay.yaml'
+    assert tune_slip.main([str(path), '--labels', str(labels), '--modes', 'paper',
+                           '--thresholds', '2', '25', '200', '-o', str(out),
+                           '--report', str(tmp_path / 'r.json')]) == 0
+    text = capsys.readouterr().out
+    assert 'threshold=25 **<-**' in text
+    assert 'slip_threshold: 25.0' in out.read_text()
+    assert params_from_overlay({'perception': {'ros__parameters': {
+        'slip_mode': 'paper', 'slip_threshold': 25.0}}}).threshold == 25.0
+    # without the labels the recording has no onsets: every flag run is false
+    assert tune_slip.main([str(path), '--modes', 'paper', '--thresholds', '2', '25',
+                           '-o', str(out)]) == 0
+    assert 'no setting reached the floor' in capsys.readouterr().out
+    bad = tmp_path / 'bad.csv'
+    bad.write_text('recording,onset\nknown,1.0\n')
+    assert tune_slip.main([str(path), '--labels', str(bad), '-o', str(out)]) == 2
+    assert 'onset_s' in capsys.readouterr().err
+    labels.write_text('recording,onset_s\nother,1.0\n')
+    assert tune_slip.main([str(path), '--labels', str(labels), '-o', str(out)]) == 2
+    assert "'known' is not labelled" in capsys.readouterr().err
+
+
+def test_robust_sweep_grid_of_the_command():
+    settings, skipped = tune_slip.settings_for(['robust', 'paper'], (2.0, 4.0),
+                                               {'single_threshold': (3.0, 4.5)}, FS)
+    varied = [v for _, v in settings]
+    assert {'mode': 'robust', 'threshold': 4.0, 'single_threshold': 4.5} in varied
+    assert {'mode': 'paper', 'threshold': 4.0} in varied
+    assert len(skipped) == 1            # robust T=4 with the one-finger threshold 3
