@@ -62,7 +62,10 @@ NODE_NAME = 'perception'
 #: (forte_perception/ros/perception_node.py; checked by the tests).
 NODE_PARAMETERS = {'window': 'slip_window', 'hop': 'slip_hop', 'f_min': 'slip_f_min',
                    'f_max': 'slip_f_max', 'history': 'slip_history', 'delta': 'slip_delta',
-                   'alpha': 'slip_alpha', 'threshold': 'slip_threshold', 'mode': 'slip_mode'}
+                   'alpha': 'slip_alpha', 'threshold': 'slip_threshold', 'mode': 'slip_mode',
+                   'single_threshold': 'slip_single_threshold',
+                   'single_min_rising': 'slip_single_min_rising',
+                   'veto_ratio': 'slip_veto_ratio'}
 #: Thresholds T swept by default [dB^2] (the paper's T = 2 among them).
 DEFAULT_THRESHOLDS = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 6.0)
 #: The robust mode's own parameters swept by default (with every T): the one-finger

@@ -116,6 +116,15 @@ PARAMETERS: dict[str, ParameterSpec] = parameter_table([
     ParameterSpec('slip_mode', str, "slip detector mode: 'robust' (quantisation floor, "
                   "level-shift veto, one finger alone; wins on the held-out slip set) or "
                   "'paper' (the paper's algorithm bit for bit)", field='slip.mode'),
+    ParameterSpec('slip_single_threshold', float, "robust mode: a finger may flag slip alone "
+                  'when its group average exceeds this (at least slip_threshold)', 'dB^2',
+                  -1e3, 1e6, field='slip.single_threshold'),
+    ParameterSpec('slip_single_min_rising', int, 'robust mode: ... and at least this many of '
+                  'its channels rise monotonically with a moving variance of at least '
+                  'slip_alpha', low=1, high=3, field='slip.single_min_rising'),
+    ParameterSpec('slip_veto_ratio', float, 'robust mode: a flag is vetoed when, on every '
+                  'finger, the level shift exceeds this times the 10-50 Hz amplitude its PSD '
+                  'rise implies', low=0.0, high=1e6, field='slip.veto_ratio'),
     ParameterSpec('input_limit', float, 'largest valid |raw value| [normalised units; the '
                   'protocol clips at +-1024 counts = +-1.0]; beyond it, or NaN/inf, a value is '
                   'invalid: its channel is masked, the others continue', low=1e-3, high=1e6,

@@ -122,7 +122,7 @@ def test_recommendation_rule():
     assert recommend([best, near]).row is best           # |1.5 - 2| = |2.5 - 2|: grid order
     assert recommend([row(1.0, (10, 0), 9, 0.05), near]).row is near
     # settings the node cannot load are never recommended
-    hidden = row(2.0, (10, 0), 10, 0.01, veto_ratio=0.5)
+    hidden = row(2.0, (10, 0), 10, 0.01, veto_span=800)
     assert not node_settable(hidden.params)
     assert recommend([best, hidden]).row is best
     with pytest.raises(ValueError, match='loaded by the perception node'):
@@ -156,7 +156,7 @@ def test_overlay_text_and_round_trip():
     assert 'slip_threshold: 1.0e-05' in overlay_yaml(overlay(SlipParams(threshold=1e-5,
                                                                         mode='paper')))
     with pytest.raises(ValueError, match='does not declare'):
-        overlay(SlipParams(veto_ratio=0.5))
+        overlay(SlipParams(veto_span=800))
     with pytest.raises(ValueError, match='ros__parameters'):
         params_from_overlay({'grasp_controller': {'ros__parameters': {}}})
 
