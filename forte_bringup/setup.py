@@ -39,6 +39,8 @@ setup(
             'forte_record = forte_bringup.record:main',
             'forte_demo = forte_bringup.demo:main',
             'forte_evaluate = forte_bringup.evaluate:main',
+            'forte_commission = forte_bringup.commission_node:main',
+            'forte_calibrate_force = forte_bringup.calibrate_force:main',
         ],
     },
 )

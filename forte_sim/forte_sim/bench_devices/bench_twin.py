@@ -35,12 +35,18 @@ the other process.
 The arm is the one part that cannot exist on the bench: :meth:`BenchTwin.set_arm_velocity`
 takes the commanded vertical velocity (the bench twin node feeds it from ``arm/cmd_vel``).
 The scene's ground truth of every step goes to the ``on_truth`` callback (evaluation only).
+
+Commissioning (issue 24): :meth:`BenchTwin.press` has a scripted operator press one finger
+(:mod:`forte_sim.operator_press`; its pressure adds to the scene's readings), and the
+optional ``faults`` (:mod:`forte_sim.bench_devices.channel_faults`: swapped channels or
+fingers, a reversed, dead, noisy or leaking channel) are applied to the readings before the
+sensor board sends them, as a miswired or damaged sensor would.
 """
 from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -48,8 +54,11 @@ from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import units
 from forte_driver.dynamixel.gripper_config import FingerConfig, GripperConfig
 from forte_ros.contract import COUNTS_PER_FULL_SCALE, N_CHANNELS, SAMPLE_PERIOD
+from forte_sim.bench_devices.channel_faults import ChannelFault, ChannelFaultInjector
 from forte_sim.bench_devices.emulated_sensor import EmulatedSensor
 from forte_sim.bench_devices.simulated_servo import SimulatedServoProcess
+from forte_sim.model import quantise
+from forte_sim.operator_press import OperatorPress, ScriptedOperator
 from forte_sim.scene import Scene, make_scene
 from forte_sim.state import TICK_SAMPLES
 from forte_sim.truth import SceneTruth
@@ -81,12 +90,15 @@ class BenchTwin:
         (called from the thread that advanced the scene, with the twin's lock held).
     sensor_seed : int
         Seed of the sensor board (its device id is derived from it, as IDENTIFY reports).
+    faults : sequence of ChannelFault
+        Sensor faults applied to the readings (default none: a healthy sensor); their
+        injected noise is seeded with ``sensor_seed``.
     """
 
     def __init__(self, sensor_link: str, scene: Scene | None = None,
                  gripper: GripperConfig | None = None,
                  on_truth: Callable[[SceneTruth], None] | None = None,
-                 sensor_seed: int = 0) -> None:
+                 sensor_seed: int = 0, faults: Sequence[ChannelFault] = ()) -> None:
         self.scene = scene if scene is not None else make_scene('grasp', 'soda_can', seed=0)
         self.gripper = gripper or GripperConfig()
         self.on_truth = on_truth
@@ -107,6 +119,9 @@ class BenchTwin:
         self._thread: threading.Thread | None = None
         self._drives = self._servo_drives()
         self._registers: dict[int, dict] = {}
+        self.faults = tuple(faults)
+        self._injector = ChannelFaultInjector(self.faults, seed=sensor_seed)
+        self._operator = ScriptedOperator(self.scene.model)
 
     # ---- lifecycle ------------------------------------------------------------------
     def start(self) -> BenchTwin:
@@ -149,6 +164,42 @@ class BenchTwin:
         with self._lock:
             self._arm_velocity = float(velocity_z)
 
+    def press(self, finger: int, location: float, force: float = 4.0, hold: float = 1.0,
+              ramp: float = 0.25) -> tuple[int, int]:
+        """A scripted operator presses one finger from the next scene sample on.
+
+        Parameters
+        ----------
+        finger : int
+            0 = left, 1 = right.
+        location : float
+            Pressed place, 0 = tip, 1 = root [-].
+        force : float
+            Peak force [N].
+        hold, ramp : float
+            Time at the peak force and rise / fall time [s].
+
+        Returns
+        -------
+        tuple of int
+            ``[start, stop)`` scene sample indices of the press.
+
+        Raises
+        ------
+        ValueError
+            On a finger, place or duration out of range.
+        """
+        with self._lock:
+            press = OperatorPress(finger, location, force, self._produced, ramp, hold)
+            self._operator.schedule(press)
+            return press.start, press.stop
+
+    @property
+    def presses(self) -> tuple[OperatorPress, ...]:
+        """The scripted operator's presses not yet over."""
+        with self._lock:
+            return self._operator.presses
+
     # ---- the scene in real time -----------------------------------------------------
     def sample_index_at(self, device_time_us: int) -> int:
         """Scene sample index of the sensor scan at ``device_time_us`` (device clock)."""
@@ -188,6 +239,10 @@ class BenchTwin:
         frames, truth = self.scene.step(count, command, self._arm_velocity,
                                         max_current=max_current,
                                         profile_velocity=profile_velocity)
+        first = self._produced
+        if self._operator.presses:
+            frames = quantise(frames + self._operator.signal(first, count))
+        frames = self._injector.apply(frames)
         counts = np.clip(np.rint(frames * COUNTS_PER_FULL_SCALE),
                          -COUNTS_PER_FULL_SCALE, COUNTS_PER_FULL_SCALE).astype(np.int64)
         rows = (self._produced + np.arange(count)) % HISTORY_SAMPLES

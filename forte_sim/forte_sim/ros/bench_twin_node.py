@@ -11,7 +11,17 @@ robot arm:
   arm lifts vertically); the arm stops when no command arrived for ``cmd_vel_timeout`` s
   (as MoveIt Servo stops on a command timeout);
 * publishes ``sim/ground_truth`` (forte_msgs/SimGroundTruth, evaluation only) at
-  ``truth_rate``, the truth at the newest simulated sample.
+  ``truth_rate``, the truth at the newest simulated sample;
+* subscribes ``sim/operator_press`` (std_msgs/String, commissioning's guided press test
+  without an operator): ``'<finger> <place> [force_N] [hold_s]'`` with finger ``left`` /
+  ``right`` and place ``tip`` / ``root`` or a number 0 (tip) .. 1 (root), e.g.
+  ``'left tip'`` or ``'right root 3.5 1.0'`` (defaults 4 N, 1 s); a scripted operator
+  presses that finger (:meth:`BenchTwin.press`); a malformed request is logged and ignored.
+
+``sensor_fault`` injects sensor faults into the board's readings
+(:mod:`forte_sim.bench_devices.channel_faults`, e.g. ``reversed:left_middle``, several
+separated by ``;``): commissioning is tested against them. An unreadable value stops the
+node at start-up with one fatal line (exit code 2).
 
 Run: ``ros2 run forte_sim bench_twin_node --ros-args -p object:=raspberry`` beside
 ``ros2 launch forte_bringup hardware.launch.py sensor_port:=/tmp/forte_bench/sensor
@@ -26,14 +36,18 @@ from pathlib import Path
 
 from geometry_msgs.msg import TwistStamped
 from rclpy.node import Node
+from std_msgs.msg import String
 
 from forte_msgs.msg import SimGroundTruth
 from forte_ros import run_node
+from forte_ros.contract import FINGER_NAMES
 from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameters import declare_table, read_table
 from forte_ros.qos import COMMANDS, GROUND_TRUTH
 from forte_sim import SCENE_NAMES, make_scene
 from forte_sim.bench_devices.bench_twin import BenchTwin
+from forte_sim.bench_devices.channel_faults import parse_faults
+from forte_sim.operator_press import PRESS_LOCATIONS
 from forte_sim.ros.ground_truth import ground_truth_message
 from forte_sim.truth import SceneTruth
 
@@ -57,7 +71,36 @@ PARAMETERS = parameter_table([
                   500.0, default=100.0, read_only=True),
     ParameterSpec('frame_id', str, 'frame_id of sim/ground_truth', default='forte_base_link',
                   read_only=True),
+    ParameterSpec('sensor_fault', str, 'sensor faults injected into the board\'s readings, '
+                  '"kind:channel[,channel][:parameter=value]" separated by ";" (kinds '
+                  'swapped_pair, swapped_fingers, reversed, dead, noisy, leaking; e.g. '
+                  '"reversed:left_middle", "leaking:left_root:tau=8"); empty: none',
+                  default='', read_only=True),
 ])
+
+
+def parse_press(text: str) -> tuple[int, float, float, float]:
+    """Read an operator press request ``'<finger> <place> [force_N] [hold_s]'``.
+
+    Returns
+    -------
+    tuple
+        (finger index, location 0 = tip .. 1 = root, force [N], hold [s]).
+
+    Raises
+    ------
+    ValueError
+        On an unknown finger or place, or a malformed number.
+    """
+    words = text.split()
+    if not 2 <= len(words) <= 4:
+        raise ValueError(f'expected "<finger> <place> [force] [hold]", got {text!r}')
+    if words[0] not in FINGER_NAMES:
+        raise ValueError(f'finger must be one of {FINGER_NAMES}, got {words[0]!r}')
+    place = PRESS_LOCATIONS.get(words[1])
+    location = float(words[1]) if place is None else place
+    numbers = [float(word) for word in words[2:]] + [4.0, 1.0][len(words) - 2:]
+    return FINGER_NAMES.index(words[0]), location, numbers[0], numbers[1]
 
 
 class BenchTwinNode(Node):
@@ -70,9 +113,11 @@ class BenchTwinNode(Node):
         self._latest: SceneTruth | None = None
         self._truth_lock = threading.Lock()
         self._last_cmd_vel = -float('inf')
+        faults = parse_faults(self.values['sensor_fault'])
         scene = make_scene(self.values['scene'], self.values['object'], self.values['seed'])
         Path(self.values['sensor_link']).parent.mkdir(parents=True, exist_ok=True)
-        self.twin = BenchTwin(self.values['sensor_link'], scene, on_truth=self._keep_truth)
+        self.twin = BenchTwin(self.values['sensor_link'], scene, on_truth=self._keep_truth,
+                              faults=faults)
         self.twin.start()
         self._servo_link = Path(self.values['servo_link'])
         self._servo_link.parent.mkdir(parents=True, exist_ok=True)
@@ -81,11 +126,23 @@ class BenchTwinNode(Node):
         self._truth_publisher = self.create_publisher(SimGroundTruth, 'sim/ground_truth',
                                                       GROUND_TRUTH)
         self.create_subscription(TwistStamped, 'arm/cmd_vel', self._on_cmd_vel, COMMANDS)
+        self.create_subscription(String, 'sim/operator_press', self._on_press, COMMANDS)
         self.create_timer(1.0 / self.values['truth_rate'], self._tick)
         self.get_logger().info(
             f"bench twin up: scene {scene.name!r} object {self.values['object']!r} seed "
             f"{self.values['seed']}; sensor board at {self.values['sensor_link']}, servos "
-            f'at {self._servo_link} -> {self.twin.servo_device}')
+            f'at {self._servo_link} -> {self.twin.servo_device}; sensor faults: '
+            f"{', '.join(fault.label for fault in faults) or 'none'}")
+
+    def _on_press(self, message: String) -> None:
+        try:
+            finger, location, force, hold = parse_press(message.data)
+            start, stop = self.twin.press(finger, location, force, hold)
+        except ValueError as error:
+            self.get_logger().warning(f'sim/operator_press refused: {error}')
+            return
+        self.get_logger().info(f'operator presses {message.data!r}: scene samples '
+                               f'[{start}, {stop})')
 
     def _keep_truth(self, truth: SceneTruth) -> None:
         with self._truth_lock:
@@ -120,7 +177,7 @@ class BenchTwinNode(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Entry point ``bench_twin_node``."""
-    return run_node(BenchTwinNode, args)
+    return run_node(BenchTwinNode, args, fatal_errors=(ValueError,), name='bench_twin')
 
 
 if __name__ == '__main__':

@@ -1,0 +1,146 @@
+"""Sensor commissioning of a FORTE gripper (issue 24): the hardware graph and
+``forte_commission``; the launch ends when the commissioning does.
+
+On the robot (the operator presses each finger when the terminal says so; the rig's
+indentor stands between the open fingers for the leak test)::
+
+    ros2 launch forte_bringup commission.launch.py sensor_port:=/dev/forte_sensor \\
+        gripper_port:=/dev/forte_gripper output:=$PWD/commissioning
+
+On the bench twin (its scripted operator presses; optionally with an injected fault)::
+
+    ros2 launch forte_bringup commission.launch.py target:=bench_twin \\
+        sensor_fault:=reversed:left_middle output:=$PWD/commissioning
+
+``target:=bench_twin`` also starts ``bench_twin_node`` (forte_sim) on the rig's scene
+(``scene:=calibration``, the indentor ``indentor``), whose device links become the ports of
+the hardware graph. The report (``report.txt``, ``report.png``, ``recording.npz``) goes to
+``output``. ``ros2 launch forte_bringup commission.launch.py --show-args`` lists the
+arguments.
+"""
+import sys
+
+from launch import LaunchContext, LaunchDescription
+from launch.actions import (
+    DeclareLaunchArgument,
+    EmitEvent,
+    ExecuteProcess,
+    IncludeLaunchDescription,
+    LogInfo,
+    OpaqueFunction,
+    RegisterEventHandler,
+)
+from launch.event_handlers import OnProcessExit
+from launch.events import Shutdown
+from launch.events.process import ProcessExited
+from launch.launch_description_sources import PythonLaunchDescriptionSource
+from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch_ros.actions import Node
+from launch_ros.substitutions import FindPackageShare
+
+from forte_bringup.graph import Argument
+
+#: Every argument, typed (a bad value stops the launch with the reason).
+ARGUMENTS = (
+    Argument('target', 'hardware', 'hardware: the gripper on sensor_port / gripper_port; '
+             'bench_twin: also start the bench twin and let its scripted operator press'),
+    Argument('sensor_port', '', 'serial device of the tactile sensor (bench_twin: the '
+             'link the twin creates; empty: /tmp/forte_bench/sensor)'),
+    Argument('gripper_port', '', 'serial device of the Dynamixel interface (bench_twin: the '
+             'link the twin creates; empty: /tmp/forte_bench/gripper)'),
+    Argument('output', 'commissioning', 'folder of report.txt, report.png, recording.npz'),
+    Argument('headless', 'auto', 'true: the bench twin presses (sim/operator_press); '
+             'false: the operator is prompted; auto: true for bench_twin'),
+    Argument('press_force', '4.0', 'force of the bench twin\'s presses [N]', 'float'),
+    Argument('squeeze_current', '0.25', 'servo current limit of the leak test\'s squeeze [A]',
+             'float'),
+    Argument('squeeze_seconds', '12.0', 'hold of the leak test [s]', 'float'),
+    Argument('sensor_fault', '', 'bench_twin: sensor faults injected into the readings, '
+             'e.g. reversed:left_middle (forte_sim bench_twin_node sensor_fault)'),
+    Argument('seed', '0', 'bench_twin: seed of the simulated rig', 'int'),
+    Argument('indentor', 'flat_wide', 'bench_twin: the rig\'s indentor (forte_sim.INDENTORS)'),
+    Argument('device_timeout', '120.0', 'bench_twin: longest wait for the twin\'s device '
+             'links before the drivers start [s]', 'float'),
+)
+TARGETS = ('hardware', 'bench_twin')
+BENCH_LINKS = ('/tmp/forte_bench/sensor', '/tmp/forte_bench/gripper')
+#: Waits (``python -c``) until every path of argv[2:] exists, at most argv[1] seconds;
+#: exit code 1 on a timeout.
+WAIT_FOR_LINKS = ('import os, sys, time\n'
+                  'deadline = time.monotonic() + float(sys.argv[1])\n'
+                  'while not all(os.path.exists(path) for path in sys.argv[2:]):\n'
+                  '    if time.monotonic() > deadline:\n'
+                  '        sys.exit(1)\n'
+                  '    time.sleep(0.2)\n')
+
+
+def _values(context: LaunchContext) -> dict[str, object]:
+    values = {}
+    for argument in ARGUMENTS:
+        text = LaunchConfiguration(argument.name).perform(context)
+        try:
+            values[argument.name] = argument.typed(text)
+        except ValueError as error:
+            raise ValueError(f'{argument.name}:={text!r}: {error}') from None
+    if values['target'] not in TARGETS:
+        raise ValueError(f"target:={values['target']!r}: expected one of {TARGETS}")
+    if values['headless'] not in ('auto', 'true', 'false'):
+        raise ValueError(f"headless:={values['headless']!r}: expected auto, true or false")
+    return values
+
+
+def _end_launch(_event: ProcessExited, context: LaunchContext) -> list:
+    """The commissioning ended: end the launch (unless it is ending already)."""
+    if context.is_shutdown:
+        return []
+    return [EmitEvent(event=Shutdown(reason='commissioning finished'))]
+
+
+def _actions(context: LaunchContext) -> list:
+    values = _values(context)
+    twin = values['target'] == 'bench_twin'
+    sensor = values['sensor_port'] or (BENCH_LINKS[0] if twin else '')
+    gripper = values['gripper_port'] or (BENCH_LINKS[1] if twin else '')
+    headless = values['headless'] == 'true' or (values['headless'] == 'auto' and twin)
+    hardware = IncludeLaunchDescription(
+        PythonLaunchDescriptionSource(PathJoinSubstitution(
+            [FindPackageShare('forte_bringup'), 'launch', 'hardware.launch.py'])),
+        launch_arguments={'sensor_port': sensor, 'gripper_port': gripper}.items())
+    arguments = ['--yes', '--output', str(values['output']),
+                 '--press-force', str(values['press_force']),
+                 '--squeeze-current', str(values['squeeze_current']),
+                 '--squeeze-seconds', str(values['squeeze_seconds'])]
+    commission = Node(package='forte_bringup', executable='forte_commission',
+                      name='forte_commission', output='screen',
+                      arguments=arguments + (['--headless'] if headless else []))
+    actions = [commission, RegisterEventHandler(OnProcessExit(
+        target_action=commission, on_exit=_end_launch))]
+    if not twin:
+        return [hardware, *actions]
+    bench = Node(package='forte_sim', executable='bench_twin_node', name='bench_twin',
+                 output='screen', parameters=[{
+                     'scene': 'calibration', 'object': values['indentor'],
+                     'seed': values['seed'], 'sensor_fault': values['sensor_fault'],
+                     'sensor_link': sensor, 'servo_link': gripper}])
+    # the drivers open the twin's links once they exist (the twin's servo process takes
+    # seconds to start on a loaded machine, longer than the drivers retry a configure)
+    wait = ExecuteProcess(cmd=[sys.executable, '-c', WAIT_FOR_LINKS,
+                               str(values['device_timeout']), sensor, gripper],
+                          name='wait_for_bench_twin', output='screen')
+
+    def after_wait(event: ProcessExited, _context: LaunchContext) -> list:
+        if event.returncode != 0:
+            return [LogInfo(msg='the bench twin\'s links did not appear'),
+                    EmitEvent(event=Shutdown(reason='no bench twin'))]
+        return [hardware, *actions]
+
+    return [bench, wait, RegisterEventHandler(OnProcessExit(target_action=wait,
+                                                            on_exit=after_wait))]
+
+
+def generate_launch_description() -> LaunchDescription:
+    """Launch description of the commissioning run."""
+    return LaunchDescription(
+        [DeclareLaunchArgument(argument.name, default_value=argument.default,
+                               description=argument.description) for argument in ARGUMENTS]
+        + [OpaqueFunction(function=_actions)])
