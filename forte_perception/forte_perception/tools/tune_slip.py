@@ -21,8 +21,8 @@ prints precision / recall / F1 / latency per
 setting (:mod:`forte_perception.evaluation.threshold_sweep`, scoring rules and the
 recommendation rule there) and writes the recommended setting as a parameter YAML overlay
 ``{perception: {ros__parameters: {slip_mode: ..., slip_threshold: ...}}}``. Only settings
-the perception node can load are recommended (it has no parameters for the robust mode's
-own fields: their rows are reported for information).
+the perception node can load are recommended (every swept field has a node parameter:
+``slip_threshold``, ``slip_single_threshold``, ``slip_veto_ratio``, ...).
 Exit codes: 0 done, 2 unusable input (message on stderr). Run time: the two
 characterisation recordings (10 trials, 115 s of signal) and the default grid (63 valid
 settings) take about 12 s (T only, `--thresholds-only`: about 5 s).
