@@ -78,6 +78,7 @@ class Watcher(Node):
 
     def __init__(self, context: Context) -> None:
         super().__init__('graph_probe', context=context)
+        from diagnostic_msgs.msg import DiagnosticArray
         from sensor_msgs.msg import JointState
 
         from forte_msgs.msg import GraspState, SimGroundTruth, TactileFrames, TactileState
@@ -87,6 +88,10 @@ class Watcher(Node):
         #: Latest ``sim/ground_truth`` (forte_msgs/SimGroundTruth) of the simulated scene.
         self.truth = None
         self.joint_positions: list[float] = []
+        #: Latest /diagnostics status per status name (diagnostic_msgs/DiagnosticStatus).
+        self.statuses: dict[str, Any] = {}
+        self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics,
+                                 qos.DIAGNOSTICS)
         self.create_subscription(TactileFrames, 'tactile/frames',
                                  lambda _: self._count('tactile/frames'), qos.SENSOR_FRAMES)
         self.create_subscription(TactileState, 'tactile/state', self._on_state,
@@ -115,6 +120,15 @@ class Watcher(Node):
 
     def _on_truth(self, message: Any) -> None:
         self.truth = message
+
+    def _on_diagnostics(self, message: Any) -> None:
+        for status in message.status:
+            self.statuses[status.name] = status
+
+    def status_values(self, name: str) -> dict[str, str]:
+        """Key -> value of the latest /diagnostics status ``name`` ({} before one came)."""
+        status = self.statuses.get(name)
+        return {item.key: item.value for item in status.values} if status else {}
 
     # -- services ---------------------------------------------------------------------------
     def call(self, service_type: Any, name: str, request: Any, timeout: float) -> Any:

@@ -118,5 +118,10 @@ def test_a_forte_grasp_on_the_bench_twin_holds_the_object(grasp_object: str):
         # the controller's own verdict is reported, not trusted; a fault is a failure of the
         # graph on the twin
         assert result.outcome in (Grasp.Result.LIFTED, Grasp.Result.NOT_CARRIED), result
+        # model identity: the board identified itself (IDENTIFY through the real driver) and
+        # perception flags the simulator-trained model as another device's (a WARN)
+        values = watcher.status_values('perception: pipeline')
+        assert values['model trained on device'] == 'simulator', values
+        assert len(values['sensor device']) == 16 and values['sensor firmware'], values
         print(f'{watcher.truth.object_name}: outcome {result.outcome} ({result.message}), '
               f'{len(feedback)} feedback messages, lift {watcher.truth.lift_height:.4f} m')
