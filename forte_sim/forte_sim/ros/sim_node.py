@@ -11,6 +11,14 @@ Thin ROS shell over :func:`forte_sim.make_scene`:
 * subscribes ``gripper/command`` (forte_msgs/ServoCommand) and ``arm/cmd_vel``
   (geometry_msgs/TwistStamped, only ``twist.linear.z`` is used: the arm lifts vertically);
   the arm stops when no velocity command arrived for ``cmd_vel_timeout`` simulated seconds;
+* in the ``calibration`` scene, publishes ``load_cell/wrench`` (geometry_msgs/WrenchStamped,
+  reliable, frame ``forte_load_cell``): the rig's load cell, one message per
+  ``load_cell_decimation`` samples (default 20: 100 Hz at 2 kHz), at the sample indices
+  divisible by it, each stamped with the time of the sample it reports; the squeeze (the
+  mean of the two finger forces plus the cell's noise, forte_sim's ``load_cell_force``) is
+  ``+wrench.force.z`` [N], every other component 0;
+* publishes ``tactile/sensor_info`` (forte_msgs/SensorInfo, latched) once: the simulator's
+  sensor identity (``forte_ros.sensor_identity.SIMULATED_SENSOR``);
 * optionally publishes ``/clock`` (rosgraph_msgs/Clock) so other nodes can run on the
   simulation clock (``use_sim_time:=true``), required for ``real_time_factor`` != 1;
 * ``/diagnostics`` once per wall second.
@@ -30,7 +38,7 @@ import threading
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import TwistStamped
+from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rcl_interfaces.msg import (
     SetParametersResult,
 )
@@ -39,13 +47,21 @@ from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileFrames
+from forte_msgs.msg import SensorInfo, ServoCommand, SimGroundTruth, TactileFrames
 from forte_ros import ForteLifecycleNode, run_node
 from forte_ros.contract import CHANNEL_NAMES, SAMPLE_PERIOD
 from forte_ros.diagnostics import OK, diagnostic_array, diagnostic_status
 from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameters import declare_table, parameter_update
-from forte_ros.qos import COMMANDS, DIAGNOSTICS, GROUND_TRUTH, SENSOR_FRAMES, reliable
+from forte_ros.qos import (
+    COMMANDS,
+    DIAGNOSTICS,
+    GROUND_TRUTH,
+    SENSOR_FRAMES,
+    SENSOR_INFO,
+    reliable,
+)
+from forte_ros.sensor_identity import SIMULATED_SENSOR
 from forte_sim import SCENE_NAMES, Scene, make_scene
 from forte_sim.ros.ground_truth import ground_truth_message
 
@@ -56,6 +72,8 @@ SCENE_PARAMETERS = ('scene', 'object', 'seed', 'trial')
 MAX_CATCH_UP = 0.5          # largest simulated lag made up in one timer tick [s]
 FAST_PERIOD = 1e-4          # timer period at real_time_factor 0 (free running) [s]
 RELIABLE_FRAMES_DEPTH = 1000    # reliable frames queue: 10 s of batches for slow readers
+LOAD_CELL_FRAME = 'forte_load_cell'    # frame_id of load_cell/wrench (squeeze along +z)
+LOAD_CELL_DEPTH = 5000          # reliable load-cell queue: 50 s at 100 Hz (fast runs)
 
 
 #: Every parameter of the node, in the order of declaration (all node-only: their defaults
@@ -88,6 +106,9 @@ PARAMETERS: dict[str, ParameterSpec] = parameter_table([
                   's', 0.001, 0.1, default=0.01, read_only=True),
     ParameterSpec('cmd_vel_timeout', float, 'the arm stops when no arm/cmd_vel arrived for '
                   'this long (simulated)', 's', 0.01, 60.0, default=0.5),
+    ParameterSpec('load_cell_decimation', int, 'samples per load_cell/wrench message in the '
+                  'calibration scene (each stamped with its sample time)', low=1, high=2000,
+                  default=20, read_only=True),
     ParameterSpec('autostart', bool, 'configure and activate at start-up without a lifecycle '
                   'manager', default=True, read_only=True),
 ])
@@ -108,6 +129,7 @@ class SimNode(ForteLifecycleNode):
         self._joint_publisher = None
         self._truth_publisher = None
         self._clock_publisher = None
+        self._load_cell_publisher = None
         self._clock_tick = 1  # samples per /clock message, from clock_rate at configure
         self._timer = None
         self._origin_ns = 0
@@ -124,6 +146,13 @@ class SimNode(ForteLifecycleNode):
         self._diagnostics_publisher = self.create_publisher(
             DiagnosticArray, '/diagnostics', DIAGNOSTICS)
         self._diagnostics_timer = self.create_timer(1.0, self._publish_diagnostics)
+        # the simulator's sensor identity, latched for late subscribers (perception)
+        self._sensor_info_publisher = self.create_publisher(
+            SensorInfo, 'tactile/sensor_info', SENSOR_INFO)
+        sensor_info = SensorInfo(**SIMULATED_SENSOR.to_dict())
+        sensor_info.header.stamp = self.get_clock().now().to_msg()
+        sensor_info.header.frame_id = str(self.get_parameter('frame_id').value)
+        self._sensor_info_publisher.publish(sensor_info)
         self._rate_window = (time.monotonic(), 0)
         self._achieved_factor = 0.0
         self.create_subscription(ServoCommand, 'gripper/command', self._on_servo_command,
@@ -177,6 +206,9 @@ class SimNode(ForteLifecycleNode):
             JointState, 'joint_states', COMMANDS)
         self._truth_publisher = self.create_lifecycle_publisher(
             SimGroundTruth, 'sim/ground_truth', GROUND_TRUTH)
+        if scene_name == 'calibration':
+            self._load_cell_publisher = self.create_lifecycle_publisher(
+                WrenchStamped, 'load_cell/wrench', reliable(LOAD_CELL_DEPTH))
         if self.get_parameter('publish_clock').value:
             self._clock_publisher = self.create_lifecycle_publisher(
                 Clock, '/clock', reliable(10))
@@ -228,7 +260,7 @@ class SimNode(ForteLifecycleNode):
 
     def _destroy_publishers(self) -> None:
         for name in ('_frames_publisher', '_joint_publisher', '_truth_publisher',
-                     '_clock_publisher'):
+                     '_clock_publisher', '_load_cell_publisher'):
             publisher = getattr(self, name)
             if publisher is not None:
                 self.destroy_lifecycle_publisher(publisher)
@@ -334,8 +366,22 @@ class SimNode(ForteLifecycleNode):
         self._truth_publisher.publish(ground_truth_message(
             truth, scene, self.get_parameter('object').value, last_stamp,
             self.get_parameter('frame_id').value))
+        if self._load_cell_publisher is not None:
+            self._publish_load_cell(first, truth.load_cell_force)
         if self._clock_publisher is not None:
             self._publish_clock(first, scene.sample_index)
+
+    def _publish_load_cell(self, first: int, force) -> None:
+        """``load_cell/wrench`` for the samples of the batch at indices divisible by
+        ``load_cell_decimation``, each stamped with its sample time (squeeze on +z) [N]."""
+        step = int(self.get_parameter('load_cell_decimation').value)
+        for row in range(-first % step, len(force), step):
+            message = WrenchStamped()
+            message.header.stamp = Time(nanoseconds=self._origin_ns + round(
+                (first + row) * SAMPLE_PERIOD * 1e9)).to_msg()
+            message.header.frame_id = LOAD_CELL_FRAME
+            message.wrench.force.z = float(force[row])
+            self._load_cell_publisher.publish(message)
 
     def _publish_clock(self, first: int, end: int) -> None:
         """Publish /clock = the end of the batch [first, end) when a tick of ``clock_rate``

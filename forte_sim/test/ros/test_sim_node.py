@@ -14,8 +14,9 @@ from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileFrames
-from forte_ros.qos import COMMANDS, reliable
+from forte_msgs.msg import SensorInfo, ServoCommand, SimGroundTruth, TactileFrames
+from forte_ros.qos import COMMANDS, SENSOR_INFO, reliable
+from forte_ros.sensor_identity import SIMULATED_SENSOR, SensorIdentity
 from forte_ros.testing import SpinningGraph, wait_until
 from forte_sim.ros.sim_node import LEFT_JOINT, RIGHT_JOINT, SimNode
 
@@ -259,3 +260,14 @@ def test_unknown_object_fails_configure():
         node.destroy_node()
     finally:
         rclpy.try_shutdown(context=context)
+
+
+def test_the_simulated_sensor_identity_is_latched(harness_factory):
+    """A subscriber that joins after the node started still receives the simulator's
+    SensorInfo (transient local), which perception checks a force model against."""
+    harness = harness_factory(scene='empty', reliable=True)
+    assert harness.wait(lambda: len(harness.frames) >= 2)
+    received = harness.ros.collect(SensorInfo, 'tactile/sensor_info', SENSOR_INFO)
+    assert harness.wait(lambda: len(received) >= 1, 10.0), 'no latched sensor info'
+    assert SensorIdentity.from_message(received[0]) == SIMULATED_SENSOR
+    assert received[0].header.frame_id == 'forte_base_link'

@@ -1,0 +1,76 @@
+"""calibrate_force.launch.py read by ``launch`` itself (nothing is started): every argument
+described, a bad value refused by name, each mode starts what it says."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+REASON = ('launch / launch_ros need a ROS 2 install (or the launch kit, '
+          '../shared/ros2-launch-kit)')
+launch = pytest.importorskip('launch', reason=REASON)
+launch_ros = pytest.importorskip('launch_ros', reason=REASON)
+
+from launch.actions import DeclareLaunchArgument, OpaqueFunction  # noqa: E402
+from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
+from launch_ros.actions import Node  # noqa: E402
+
+LAUNCH_FILE = Path(__file__).resolve().parents[1] / 'launch' / 'calibrate_force.launch.py'
+
+
+def description() -> launch.LaunchDescription:
+    source = PythonLaunchDescriptionSource(str(LAUNCH_FILE))
+    return source.get_launch_description(launch.LaunchContext())
+
+
+def started(**arguments: str) -> list:
+    """The actions the OpaqueFunction returns for ``arguments`` (others at their default)."""
+    context = launch.LaunchContext()
+    context.launch_configurations.update(arguments)
+    actions = []
+    for entity in description().entities:
+        if isinstance(entity, DeclareLaunchArgument):
+            entity.execute(context)
+        elif isinstance(entity, OpaqueFunction):
+            actions += entity.execute(context) or []
+    return actions
+
+
+def nodes(actions: list) -> dict[str, Node]:
+    found = {}
+    for action in actions:
+        if isinstance(action, Node):
+            found[action.node_executable] = action
+    return found
+
+
+def test_every_argument_is_declared_with_a_description():
+    arguments = description().get_launch_arguments()
+    names = [argument.name for argument in arguments]
+    assert {'mode', 'session_dir', 'quick', 'load_cell_topic', 'load_cell_axis',
+            'load_cell_sign', 'auto_continue', 'real_time_factor'} <= set(names)
+    for argument in arguments:
+        assert len(argument.description) > 20, argument.name
+
+
+def test_sim_mode_starts_the_calibration_scene_and_the_procedure():
+    found = nodes(started(mode='sim', quick='true', load_cell_sign='-1'))
+    assert set(found) == {'sim_node', 'forte_calibrate_force'}
+    assert 'perception_node' not in found and 'grasp_controller_node' not in found
+
+
+def test_hardware_mode_starts_the_drivers_and_the_procedure_only():
+    actions = started(mode='hardware', sensor_port='/dev/null')
+    executables = {getattr(action, 'node_executable', None) for action in actions}
+    assert {'serial_sensor_node', 'gripper_driver_node', 'forte_calibrate_force'} <= executables
+    assert 'grasp_controller_node' not in executables and 'sim_node' not in executables
+
+
+@pytest.mark.parametrize('arguments, problem', [
+    ({'mode': 'robot'}, 'expected sim or hardware'),
+    ({'quick': 'yes'}, 'expected true or false'),
+    ({'load_cell_sign': 'minus'}, 'load_cell_sign'),
+])
+def test_a_bad_argument_stops_the_launch_with_its_name(arguments, problem):
+    with pytest.raises(ValueError, match=problem):
+        started(**arguments)
