@@ -29,12 +29,18 @@ from forte_bringup.procedures.force_plan import ContactRule, ForceCalibrationCon
 from forte_bringup.procedures.load_cell import align_load_cell
 from forte_bringup.procedures.recording import RecordingBuffer
 from forte_bringup.procedures.session_store import SessionStore
+from forte_ros.sensor_identity import SensorIdentity, check_identity
 
 __all__ = ['CalibrationRig', 'ForceCalibration', 'RigError', 'SessionReport', 'StaleSensor']
 
 
 class RigError(RuntimeError):
     """The rig cannot go on (stale sensor, no load cell, no contact): the text says why."""
+
+
+class DeviceMismatch(RigError):
+    """The sensor is not the one the session was recorded with (another board, firmware,
+    rate, channel order or full scale): its trials cannot go into one dataset."""
 
 
 class StaleSensor(RigError):
@@ -152,7 +158,7 @@ class ForceCalibration:
         if pending:
             await self.rig.new_scene(pending[0], search=True)
             await self.rig.check_ready()
-            self.store.set_sensor_identity(self.rig.sensor_identity())
+            self._check_device()
         for name in self.config.indentors:
             trials = [plan for plan in pending if plan.indentor == name]
             if trials:
@@ -172,6 +178,7 @@ class ForceCalibration:
         await self.rig.prompt(
             f'indentor {index + 1}/{len(self.config.indentors)}: mount {name!r} on the load '
             'cell, centred between the open fingers, then continue')
+        self._check_device()  # the board may have been changed during the prompt
         theta = self.store.zero_force(name)
         if theta is None:
             theta = await self._search_with_attempts(name, trials[0])
@@ -180,6 +187,31 @@ class ForceCalibration:
             self.log(f'{name}: theta_zeroF {theta:.4f} rad (kept from this session)')
         for plan in trials:
             await self._trial_with_attempts(plan, theta)
+
+    def _check_device(self) -> None:
+        """Keep the sensor's identity; refuse a sensor other than the session's.
+
+        Raises
+        ------
+        DeviceMismatch
+            The session's trials were recorded on another sensor (the message names both
+            and what differs); every finished trial stays in the session folder.
+        """
+        current = self.rig.sensor_identity()
+        recorded = self.store.state.get('sensor_identity')
+        if current is None:
+            return
+        if recorded is not None:
+            check = check_identity(recorded, SensorIdentity.from_dict(current))
+            differences = check.refusals + check.warnings
+            if differences:
+                raise DeviceMismatch(
+                    f'device mismatch: this session was recorded on device '
+                    f'{recorded.get("device_id") or "(unknown)"}, the sensor is now '
+                    f'{current.get("device_id") or "(unknown)"} ({"; ".join(differences)}); '
+                    'connect the session\'s sensor to resume it, or calibrate this one in a '
+                    'new session_dir')
+        self.store.set_sensor_identity(current)
 
     async def _search_with_attempts(self, name: str, plan: TrialPlan) -> float:
         for attempt in range(self.config.max_attempts):

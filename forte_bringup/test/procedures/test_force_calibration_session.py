@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from forte_bringup.procedures.force_calibration import (
+    DeviceMismatch,
     ForceCalibration,
     RigError,
     StaleSensor,
@@ -216,3 +217,46 @@ def test_operator_prompts_name_each_indentor_once(tmp_path):
     asyncio.run(procedure.run())
     assert len(rig.prompts) == 2
     assert "'flat_wide'" in rig.prompts[0] and "'sphere'" in rig.prompts[1]
+
+
+class BoardRig(SceneRig):
+    """The simulated rig reporting the identity of a serial board ``device_id``."""
+
+    def __init__(self, device_id: str, firmware: str = '1.0.0') -> None:
+        super().__init__()
+        self.device_id, self.firmware = device_id, firmware
+
+    def sensor_identity(self) -> dict:
+        return {'source': 'serial', 'device_id': self.device_id, 'firmware': self.firmware,
+                'protocol_version': 1, 'sample_rate': 2000.0, 'adc_bits': 12}
+
+
+@pytest.mark.parametrize('other, words', [
+    (BoardRig('00000000000000b2'), 'device 00000000000000a1, the sensor is now '
+                                   '00000000000000b2'),
+    (BoardRig('00000000000000a1', firmware='2.0.0'), 'firmware 1.0.0, sensor runs 2.0.0'),
+])
+def test_resuming_on_another_sensor_is_refused_and_keeps_every_trial(tmp_path, other, words):
+    """A session recorded on board a1 and resumed with another board (or firmware) plugged
+    in: refused with both named, nothing recorded on the wrong board, nothing lost; the
+    right board resumes it."""
+    class InterruptedBoard(BoardRig):
+        async def wait_samples(self, count):
+            if self.trial_now == 4 and count > CONFIG.tare_samples:
+                raise Interrupted
+            await super().wait_samples(count)
+
+        async def new_scene(self, plan, search):
+            self.trial_now = None if search else plan.trial
+            await super().new_scene(plan, search)
+
+    with pytest.raises(Interrupted):
+        run(tmp_path, InterruptedBoard('00000000000000a1'))
+    with pytest.raises(DeviceMismatch, match=words) as raised:
+        run(tmp_path, other)
+    assert 'new session_dir' in str(raised.value)
+    store = SessionStore(tmp_path, CONFIG)
+    assert store.done_count() == 4
+    assert store.state['sensor_identity']['device_id'] == '00000000000000a1'
+    report = run(tmp_path, BoardRig('00000000000000a1'))
+    assert report.done == 6 and report.recorded == 2
