@@ -387,17 +387,19 @@ def emulated_devices(folder: Path, timeout: float = 20.0):
         (sensor_link, servo_link), timeout, 'the emulated devices')
 
 
-def bench_twin(folder: Path, object_name: str, seed: int, timeout: float = 30.0):
+def bench_twin(folder: Path, object_name: str, seed: int, timeout: float = 30.0,
+               scene: str = 'grasp'):
     """The bench twin node (``python -m forte_sim.ros.bench_twin_node``): both bench devices
-    driven by one scene of ``object_name``, the arm on ``arm/cmd_vel``, the truth on
-    ``sim/ground_truth``; stopped with SIGINT (SIGKILL after 10 s) on exit. A context
-    manager yielding the sensor's and the gripper's device links.
+    driven by one ``scene`` of ``object_name`` (an indentor in the calibration scene), the
+    arm on ``arm/cmd_vel``, the truth on ``sim/ground_truth`` (and the load cell on
+    ``load_cell/wrench`` in the calibration scene); stopped with SIGINT (SIGKILL after 10 s)
+    on exit. A context manager yielding the sensor's and the gripper's device links.
     """
     sensor_link, servo_link = folder / 'bench' / 'sensor', folder / 'bench' / 'gripper'
     return _device_processes(
         [['forte_sim.ros.bench_twin_node', '--ros-args', '-p', f'sensor_link:={sensor_link}',
           '-p', f'servo_link:={servo_link}', '-p', f'object:={object_name}',
-          '-p', f'seed:={seed}']],
+          '-p', f'seed:={seed}', '-p', f'scene:={scene}']],
         (sensor_link, servo_link), timeout, 'the bench twin')
 
 

@@ -270,6 +270,10 @@ class ForceCalibration:
             The sensor went stale during the trial.
         """
         c = self.config
+        # lead-in: frames recorded before the trial and then dropped, so that a load-cell
+        # sample precedes the trial's first frame (a robot's load cell samples at its own
+        # instants; no extrapolation means the first frame needs one before it)
+        lead = c.samples(c.load_cell_max_gap)
         tare = c.tare_samples
         hold = c.samples(c.protocol.hold_seconds)
         total = tare + hold + c.samples(c.protocol.release_seconds)
@@ -277,27 +281,27 @@ class ForceCalibration:
         self.rig.command(open_angle)
         buffer = self.rig.start_recording()
         try:
-            await self.rig.wait_samples(tare)
+            await self.rig.wait_samples(lead + tare)
             self.rig.command(plan.target(theta))
-            await self.rig.wait_samples(tare + hold)
+            await self.rig.wait_samples(lead + tare + hold)
             self.rig.command(open_angle)
-            await self.rig.wait_samples(total)
-            recording = buffer.snapshot(total)
+            await self.rig.wait_samples(lead + total)
+            recording = buffer.snapshot(lead + total)
             await self.rig.wait_load_cell(int(recording.frame_times_ns[-1]))
-            recording = buffer.snapshot(total)
+            recording = buffer.snapshot(lead + total)
         finally:
             self.rig.stop_recording()
         if recording.problems:
             return '; '.join(recording.problems)
-        aligned = align_load_cell(recording.frame_times_ns, recording.load_times_ns,
-                                  recording.load_values, c.load_cell_max_gap)
+        times, frames = recording.frame_times_ns[lead:], recording.frames[lead:]
+        aligned = align_load_cell(times, recording.load_times_ns, recording.load_values,
+                                  c.load_cell_max_gap)
         if not aligned.ok:
             return aligned.problem
         force = aligned.force
         if c.tare_load_cell:
             force = force - force[:tare].mean()
-        self.store.save_trial(plan, recording.frames, force, theta,
-                              int(recording.frame_times_ns[0]))
+        self.store.save_trial(plan, frames, force, theta, int(times[0]))
         return ''
 
     # ------------------------------------------------------------------ theta_zeroF

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -201,6 +202,14 @@ class BenchTwin:
             return self._operator.presses
 
     # ---- the scene in real time -----------------------------------------------------
+    def sample_time_ns(self, index: int) -> int:
+        """System (ROS) time at which the board sampled scene sample ``index`` [ns]: the
+        time base of the driver's frame stamps (device clock mapped to host time), so a
+        load cell stamped with it lines up with the frames."""
+        device_us = self._origin_us + index * _PERIOD_US
+        system_minus_monotonic = time.time_ns() - time.monotonic_ns()
+        return self.sensor.host_ns_of_device_time(device_us) + system_minus_monotonic
+
     def sample_index_at(self, device_time_us: int) -> int:
         """Scene sample index of the sensor scan at ``device_time_us`` (device clock)."""
         return (device_time_us - self._origin_us) // _PERIOD_US

@@ -12,6 +12,11 @@ robot arm:
   (as MoveIt Servo stops on a command timeout);
 * publishes ``sim/ground_truth`` (forte_msgs/SimGroundTruth, evaluation only) at
   ``truth_rate``, the truth at the newest simulated sample;
+* in the ``calibration`` scene (``object`` = the indentor), publishes ``load_cell/wrench``
+  (geometry_msgs/WrenchStamped, reliable) as the sim node does: the rig's load cell at the
+  sample indices divisible by ``load_cell_decimation``, each stamped with the time the board
+  sampled it (the driver's time base), squeeze on ``+force.z`` [N]; so the force
+  calibration procedure runs on the bench twin through the real drivers;
 * subscribes ``sim/operator_press`` (std_msgs/String, commissioning's guided press test
   without an operator): ``'<finger> <place> [force_N] [hold_s]'`` with finger ``left`` /
   ``right`` and place ``tip`` / ``root`` or a number 0 (tip) .. 1 (root), e.g.
@@ -34,7 +39,7 @@ import threading
 import time
 from pathlib import Path
 
-from geometry_msgs.msg import TwistStamped
+from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rclpy.node import Node
 from std_msgs.msg import String
 
@@ -43,12 +48,16 @@ from forte_ros import run_node
 from forte_ros.contract import FINGER_NAMES
 from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameters import declare_table, read_table
-from forte_ros.qos import COMMANDS, GROUND_TRUTH
+from forte_ros.qos import COMMANDS, GROUND_TRUTH, reliable
 from forte_sim import SCENE_NAMES, make_scene
 from forte_sim.bench_devices.bench_twin import BenchTwin
 from forte_sim.bench_devices.channel_faults import parse_faults
 from forte_sim.operator_press import PRESS_LOCATIONS
-from forte_sim.ros.ground_truth import ground_truth_message
+from forte_sim.ros.ground_truth import (
+    LOAD_CELL_DEPTH,
+    ground_truth_message,
+    load_cell_messages,
+)
 from forte_sim.truth import SceneTruth
 
 #: Every parameter of the node (all node-only; the scene's apply at start-up).
@@ -71,6 +80,9 @@ PARAMETERS = parameter_table([
                   500.0, default=100.0, read_only=True),
     ParameterSpec('frame_id', str, 'frame_id of sim/ground_truth', default='forte_base_link',
                   read_only=True),
+    ParameterSpec('load_cell_decimation', int, 'samples per load_cell/wrench message in the '
+                  'calibration scene (each stamped with its sample time)', low=1, high=2000,
+                  default=20, read_only=True),
     ParameterSpec('sensor_fault', str, 'sensor faults injected into the board\'s readings, '
                   '"kind:channel[,channel][:parameter=value]" separated by ";" (kinds '
                   'swapped_pair, swapped_fingers, reversed, dead, noisy, leaking; e.g. '
@@ -125,6 +137,11 @@ class BenchTwinNode(Node):
         os.symlink(self.twin.servo_device, self._servo_link)
         self._truth_publisher = self.create_publisher(SimGroundTruth, 'sim/ground_truth',
                                                       GROUND_TRUTH)
+        self._load_cell_publisher = None
+        self._load_cell_chunks: list[SceneTruth] = []  # guarded by _truth_lock
+        if scene.name == 'calibration':
+            self._load_cell_publisher = self.create_publisher(
+                WrenchStamped, 'load_cell/wrench', reliable(LOAD_CELL_DEPTH))
         self.create_subscription(TwistStamped, 'arm/cmd_vel', self._on_cmd_vel, COMMANDS)
         self.create_subscription(String, 'sim/operator_press', self._on_press, COMMANDS)
         self.create_timer(1.0 / self.values['truth_rate'], self._tick)
@@ -147,6 +164,8 @@ class BenchTwinNode(Node):
     def _keep_truth(self, truth: SceneTruth) -> None:
         with self._truth_lock:
             self._latest = truth
+            if self._load_cell_publisher is not None:
+                self._load_cell_chunks.append(truth)
 
     def _on_cmd_vel(self, message: TwistStamped) -> None:
         try:
@@ -162,6 +181,11 @@ class BenchTwinNode(Node):
             self.twin.set_arm_velocity(0.0)
         with self._truth_lock:
             truth, self._latest = self._latest, None
+            chunks, self._load_cell_chunks = self._load_cell_chunks, []
+        step = int(self.values['load_cell_decimation'])
+        for chunk in chunks:
+            for message in load_cell_messages(chunk, step, self.twin.sample_time_ns):
+                self._load_cell_publisher.publish(message)
         if truth is not None:
             self._truth_publisher.publish(ground_truth_message(
                 truth, self.twin.scene, self.values['object'],

@@ -1,8 +1,12 @@
-"""``sim/ground_truth`` messages from a scene's :class:`~forte_sim.truth.SceneTruth`: the one
-conversion used by the sim node and the bench twin node (evaluation only)."""
+"""``sim/ground_truth`` and ``load_cell/wrench`` messages from a scene's
+:class:`~forte_sim.truth.SceneTruth`: the one conversion used by the sim node and the bench
+twin node (ground truth: evaluation only; the load cell: the calibration rig's sensor)."""
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+
 from builtin_interfaces.msg import Time
+from geometry_msgs.msg import WrenchStamped
 
 from forte_msgs.msg import SimGroundTruth
 from forte_sim.scene import Scene
@@ -43,3 +47,39 @@ def ground_truth_message(truth: SceneTruth, scene: Scene, object_name: str, stam
     message.object_slip = latest['object_slip']
     message.object_rotation = latest['object_rotation']
     return message
+
+
+#: frame_id of ``load_cell/wrench`` (the squeeze along +z).
+LOAD_CELL_FRAME = 'forte_load_cell'
+#: Reliable ``load_cell/wrench`` queue: 50 s at 100 Hz (fast simulations).
+LOAD_CELL_DEPTH = 5000
+
+
+def load_cell_messages(truth: SceneTruth, step: int, stamp_ns: Callable[[int], int]
+                       ) -> Iterator[WrenchStamped]:
+    """The calibration rig's load cell in a chunk: one message per sample whose index is a
+    multiple of ``step``, stamped with that sample's time.
+
+    Parameters
+    ----------
+    truth : SceneTruth
+        Ground truth of the chunk (``first_index``, ``load_cell_force`` [N]).
+    step : int
+        Samples per message (20: 100 Hz at 2 kHz).
+    stamp_ns : callable
+        ``stamp_ns(sample_index)``: the time of a scene sample in the graph's clock [ns].
+
+    Yields
+    ------
+    geometry_msgs.msg.WrenchStamped
+        ``wrench.force.z`` = the squeeze [N], every other component 0, frame
+        :data:`LOAD_CELL_FRAME`.
+    """
+    first, force = truth.first_index, truth.load_cell_force
+    for row in range(-first % step, len(force), step):
+        message = WrenchStamped()
+        nanoseconds = stamp_ns(first + row)
+        message.header.stamp = Time(sec=nanoseconds // 10**9, nanosec=nanoseconds % 10**9)
+        message.header.frame_id = LOAD_CELL_FRAME
+        message.wrench.force.z = float(force[row])
+        yield message

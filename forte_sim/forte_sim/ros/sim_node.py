@@ -63,7 +63,11 @@ from forte_ros.qos import (
 )
 from forte_ros.sensor_identity import SIMULATED_SENSOR
 from forte_sim import SCENE_NAMES, Scene, make_scene
-from forte_sim.ros.ground_truth import ground_truth_message
+from forte_sim.ros.ground_truth import (
+    LOAD_CELL_DEPTH,
+    ground_truth_message,
+    load_cell_messages,
+)
 
 LEFT_JOINT = 'forte_left_finger_joint'
 RIGHT_JOINT = 'forte_right_finger_joint'
@@ -72,8 +76,6 @@ SCENE_PARAMETERS = ('scene', 'object', 'seed', 'trial')
 MAX_CATCH_UP = 0.5          # largest simulated lag made up in one timer tick [s]
 FAST_PERIOD = 1e-4          # timer period at real_time_factor 0 (free running) [s]
 RELIABLE_FRAMES_DEPTH = 1000    # reliable frames queue: 10 s of batches for slow readers
-LOAD_CELL_FRAME = 'forte_load_cell'    # frame_id of load_cell/wrench (squeeze along +z)
-LOAD_CELL_DEPTH = 5000          # reliable load-cell queue: 50 s at 100 Hz (fast runs)
 
 
 #: Every parameter of the node, in the order of declaration (all node-only: their defaults
@@ -367,21 +369,15 @@ class SimNode(ForteLifecycleNode):
             truth, scene, self.get_parameter('object').value, last_stamp,
             self.get_parameter('frame_id').value))
         if self._load_cell_publisher is not None:
-            self._publish_load_cell(first, truth.load_cell_force)
+            step = int(self.get_parameter('load_cell_decimation').value)
+            for message in load_cell_messages(truth, step, self._sample_time_ns):
+                self._load_cell_publisher.publish(message)
         if self._clock_publisher is not None:
             self._publish_clock(first, scene.sample_index)
 
-    def _publish_load_cell(self, first: int, force) -> None:
-        """``load_cell/wrench`` for the samples of the batch at indices divisible by
-        ``load_cell_decimation``, each stamped with its sample time (squeeze on +z) [N]."""
-        step = int(self.get_parameter('load_cell_decimation').value)
-        for row in range(-first % step, len(force), step):
-            message = WrenchStamped()
-            message.header.stamp = Time(nanoseconds=self._origin_ns + round(
-                (first + row) * SAMPLE_PERIOD * 1e9)).to_msg()
-            message.header.frame_id = LOAD_CELL_FRAME
-            message.wrench.force.z = float(force[row])
-            self._load_cell_publisher.publish(message)
+    def _sample_time_ns(self, index: int) -> int:
+        """Time of scene sample ``index`` on the simulation clock [ns]."""
+        return self._origin_ns + round(index * SAMPLE_PERIOD * 1e9)
 
     def _publish_clock(self, first: int, end: int) -> None:
         """Publish /clock = the end of the batch [first, end) when a tick of ``clock_rate``

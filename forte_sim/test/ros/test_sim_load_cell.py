@@ -12,7 +12,8 @@ from forte_msgs.msg import TactileFrames
 from forte_ros.qos import reliable
 from forte_ros.testing import SpinningGraph, wait_until
 from forte_sim import make_scene
-from forte_sim.ros.sim_node import LOAD_CELL_FRAME, SimNode
+from forte_sim.ros.ground_truth import LOAD_CELL_FRAME
+from forte_sim.ros.sim_node import SimNode
 
 
 def run_sim(samples: int, **parameters) -> tuple[list, list]:
