@@ -41,6 +41,7 @@ setup(
             'forte_evaluate = forte_bringup.evaluate:main',
             'forte_commission = forte_bringup.commission_node:main',
             'forte_calibrate_force = forte_bringup.calibrate_force:main',
+            'forte_slip_lift = forte_bringup.slip_lift_node:main',
         ],
     },
 )

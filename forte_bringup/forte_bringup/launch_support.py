@@ -49,7 +49,7 @@ from forte_bringup.graph import (
 )
 
 
-def _node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
+def node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
                   overrides: dict[str, object], params_file: str,
                   overlay: str = '') -> list[Action]:
     """The actions that start one node (and drive it if it is a lifecycle node).
@@ -189,7 +189,7 @@ def graph_launch_description(graph_name: str) -> LaunchDescription:
         named = overlay_nodes(overlay, graph) if overlay else set()
         actions = []
         for spec in graph.nodes:
-            actions += _node_actions(spec, *argument_settings(spec, arguments, graph),
+            actions += node_actions(spec, *argument_settings(spec, arguments, graph),
                                      params_file,
                                      overlay if {spec.name, '/**'} & named else '')
         if IfCondition(LaunchConfiguration('record')).evaluate(context):

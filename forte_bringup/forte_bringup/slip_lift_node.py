@@ -22,9 +22,9 @@ theta_grasp search on a robot: run one lift per angle that
 whether the object came up without slipping, record the answer, repeat (the object put back
 between lifts). Then N trials at angles drawn in ``[theta_grasp, theta_zeroF)``.
 
-Usage (no console script yet)::
+Usage::
 
-    python -m forte_bringup.slip_lift_node --ros-args -p grip_angle:=0.535 \\
+    ros2 run forte_bringup forte_slip_lift --ros-args -p grip_angle:=0.535 \\
         -p open_angle:=0.64 -p use_sim_time:=true
 """
 from __future__ import annotations

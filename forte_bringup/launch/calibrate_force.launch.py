@@ -32,7 +32,7 @@ from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
 from forte_bringup.graph import GRAPHS, Argument, argument_settings
-from forte_bringup.launch_support import _node_actions
+from forte_bringup.launch_support import node_actions
 
 #: Every argument: name, default, description, kind of the parameter it sets.
 ARGUMENTS = (
@@ -107,7 +107,7 @@ def _setup(context: LaunchContext) -> list:
             remappings, overrides = argument_settings(spec, values, graph)
             if spec.name == 'serial_sensor':
                 overrides['reliable'] = True
-            actions += _node_actions(spec, remappings, overrides, params_file)
+            actions += node_actions(spec, remappings, overrides, params_file)
     node = Node(package='forte_bringup', executable='forte_calibrate_force',
                 name='force_calibration', namespace='', output='screen',
                 parameters=[procedure])
