@@ -43,14 +43,10 @@ from forte_bringup.procedures.force_plan import TrialPlan
 from forte_bringup.procedures.load_cell import wrench_component
 from forte_bringup.procedures.recording import RecordingBuffer
 from forte_driver.replay.bags import BagWriter, TopicSpec
-from forte_msgs.msg import ServoCommand, TactileFrames
+from forte_msgs.msg import SensorInfo, ServoCommand, TactileFrames
 from forte_ros.contract import CHANNEL_NAMES
-from forte_ros.qos import COMMANDS, reliable
-
-try:  # forte_msgs/SensorInfo (issue 24 part 4); optional until every install has it
-    from forte_msgs.msg import SensorInfo
-except ImportError:  # pragma: no cover - older forte_msgs
-    SensorInfo = None
+from forte_ros.qos import COMMANDS, LOAD_CELL, SENSOR_INFO, reliable
+from forte_ros.sensor_identity import SensorIdentity
 
 __all__ = ['RosCalibrationRig']
 
@@ -113,11 +109,10 @@ class RosCalibrationRig:
         if self.load_topic in own:
             raise ValueError(f'refused: bad load-cell topic: {self.load_topic} carries '
                              f'{own[self.load_topic]}, not geometry_msgs/msg/WrenchStamped')
-        self._subscribe(WrenchStamped, self.load_topic, reliable(QUEUE_DEPTH), self._on_load,
+        self._subscribe(WrenchStamped, self.load_topic, LOAD_CELL, self._on_load,
                         'geometry_msgs/msg/WrenchStamped', True)
-        if SensorInfo is not None:
-            self._subscribe(SensorInfo, 'tactile/sensor_info', reliable(1, transient_local=True),
-                            self._on_sensor_info, 'forte_msgs/msg/SensorInfo', True, True)
+        self._subscribe(SensorInfo, 'tactile/sensor_info', SENSOR_INFO, self._on_sensor_info,
+                        'forte_msgs/msg/SensorInfo', True, True)
         self.frames_topic = node.resolve_topic_name('tactile/frames')
         self._command_publisher = node.create_publisher(ServoCommand, 'gripper/command', COMMANDS)
         self._command_topic = self._command_publisher.topic_name
@@ -187,11 +182,8 @@ class RosCalibrationRig:
             self.buffer.add_load(stamp, value)
             self._resolve('load', stamp)
 
-    def _on_sensor_info(self, message) -> None:
-        fields = ('source', 'device_id', 'firmware', 'protocol_version', 'sample_rate',
-                  'channel_names', 'counts_per_full_scale', 'adc_bits')
-        self._identity = {name: getattr(message, name) for name in fields}
-        self._identity['channel_names'] = list(self._identity['channel_names'])
+    def _on_sensor_info(self, message: SensorInfo) -> None:
+        self._identity = SensorIdentity.from_message(message).to_dict()
 
     def _on_continue(self, request, response):
         if self._continue is not None and not self._continue.done():

@@ -11,6 +11,7 @@ change to the contract is a change to this file and the table, nothing else.
   last 10.
 - :data:`GRASP_STATE`: ``grasp/state``; reliable, transient local, keep last 1.
 - :data:`SENSOR_INFO`: ``tactile/sensor_info``; reliable, transient local, keep last 1.
+- :data:`LOAD_CELL`: ``load_cell/wrench``; reliable, keep last 5000.
 - :data:`GROUND_TRUTH`: ``sim/ground_truth``; reliable, keep last 50.
 - :data:`DIAGNOSTICS`: ``/diagnostics``; reliable, keep last 10.
 
@@ -21,8 +22,9 @@ from __future__ import annotations
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-__all__ = ['COMMANDS', 'DIAGNOSTICS', 'GRASP_STATE', 'GROUND_TRUTH', 'RELIABLE_FRAMES',
-           'SENSOR_FRAMES', 'SENSOR_INFO', 'TACTILE_STATE', 'frames_profile', 'reliable']
+__all__ = ['COMMANDS', 'DIAGNOSTICS', 'GRASP_STATE', 'GROUND_TRUTH', 'LOAD_CELL',
+           'RELIABLE_FRAMES', 'SENSOR_FRAMES', 'SENSOR_INFO', 'TACTILE_STATE', 'frames_profile',
+           'reliable']
 
 
 def reliable(depth: int, transient_local: bool = False) -> QoSProfile:
@@ -59,6 +61,9 @@ COMMANDS = reliable(10)
 GRASP_STATE = reliable(1, transient_local=True)
 #: ``tactile/sensor_info``: the sensor's identity, latched for late subscribers.
 SENSOR_INFO = reliable(1, transient_local=True)
+#: ``load_cell/wrench``: the calibration rig's load cell, 50 s at 100 Hz queued (a fast
+#: simulation must not overwrite samples the procedure has not read).
+LOAD_CELL = reliable(5000)
 #: ``sim/ground_truth``.
 GROUND_TRUTH = reliable(50)
 #: ``/diagnostics``.

@@ -48,13 +48,12 @@ from forte_ros import run_node
 from forte_ros.contract import FINGER_NAMES
 from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameters import declare_table, read_table
-from forte_ros.qos import COMMANDS, GROUND_TRUTH, reliable
+from forte_ros.qos import COMMANDS, GROUND_TRUTH, LOAD_CELL
 from forte_sim import SCENE_NAMES, make_scene
 from forte_sim.bench_devices.bench_twin import BenchTwin
 from forte_sim.bench_devices.channel_faults import parse_faults
 from forte_sim.operator_press import PRESS_LOCATIONS
 from forte_sim.ros.ground_truth import (
-    LOAD_CELL_DEPTH,
     ground_truth_message,
     load_cell_messages,
 )
@@ -141,7 +140,7 @@ class BenchTwinNode(Node):
         self._load_cell_chunks: list[SceneTruth] = []  # guarded by _truth_lock
         if scene.name == 'calibration':
             self._load_cell_publisher = self.create_publisher(
-                WrenchStamped, 'load_cell/wrench', reliable(LOAD_CELL_DEPTH))
+                WrenchStamped, 'load_cell/wrench', LOAD_CELL)
         self.create_subscription(TwistStamped, 'arm/cmd_vel', self._on_cmd_vel, COMMANDS)
         self.create_subscription(String, 'sim/operator_press', self._on_press, COMMANDS)
         self.create_timer(1.0 / self.values['truth_rate'], self._tick)

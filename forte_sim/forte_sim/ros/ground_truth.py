@@ -51,8 +51,6 @@ def ground_truth_message(truth: SceneTruth, scene: Scene, object_name: str, stam
 
 #: frame_id of ``load_cell/wrench`` (the squeeze along +z).
 LOAD_CELL_FRAME = 'forte_load_cell'
-#: Reliable ``load_cell/wrench`` queue: 50 s at 100 Hz (fast simulations).
-LOAD_CELL_DEPTH = 5000
 
 
 def load_cell_messages(truth: SceneTruth, step: int, stamp_ns: Callable[[int], int]

@@ -57,6 +57,7 @@ from forte_ros.qos import (
     COMMANDS,
     DIAGNOSTICS,
     GROUND_TRUTH,
+    LOAD_CELL,
     SENSOR_FRAMES,
     SENSOR_INFO,
     reliable,
@@ -64,7 +65,6 @@ from forte_ros.qos import (
 from forte_ros.sensor_identity import SIMULATED_SENSOR
 from forte_sim import SCENE_NAMES, Scene, make_scene
 from forte_sim.ros.ground_truth import (
-    LOAD_CELL_DEPTH,
     ground_truth_message,
     load_cell_messages,
 )
@@ -210,7 +210,7 @@ class SimNode(ForteLifecycleNode):
             SimGroundTruth, 'sim/ground_truth', GROUND_TRUTH)
         if scene_name == 'calibration':
             self._load_cell_publisher = self.create_lifecycle_publisher(
-                WrenchStamped, 'load_cell/wrench', reliable(LOAD_CELL_DEPTH))
+                WrenchStamped, 'load_cell/wrench', LOAD_CELL)
         if self.get_parameter('publish_clock').value:
             self._clock_publisher = self.create_lifecycle_publisher(
                 Clock, '/clock', reliable(10))
