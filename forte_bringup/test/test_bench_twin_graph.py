@@ -41,6 +41,14 @@ WAIT = 60.0
 GRASPS = {'soda_can': (0, 0.03), 'raspberry': (0, 0.01)}
 #: Object height above the table that counts as carried [m] (the closed loop's success).
 CARRIED_HEIGHT = 0.005
+#: Lift speed of the bench grasps [m/s]: 2 mm/s instead of the controller's 5 mm/s. On the
+#: shared 2-core machine the twin (a Python board at 2 kHz, the servo bus, the scene) and
+#: the four graph nodes load both cores; perception then loses best-effort messages (input
+#: gaps restart its slip detector) and the board skips scans, and at 5 mm/s the can slid
+#: 24-30 mm before FORTE's tightening caught it (CI 2026-11-26: not carried, 1 of 2 runs
+#: under a busy-loop beside it: 3 mm up); the slower lift leaves the same reaction time
+#: per millimetre of slip as a robot's dedicated computer would.
+LIFT_SPEED = 0.002
 
 
 #: The controller's freshness bounds on the bench [s]: the hardware graph runs on the wall
@@ -106,14 +114,18 @@ def test_a_forte_grasp_on_the_bench_twin_holds_the_object(grasp_object: str):
         assert wait_for(lambda: watcher.truth is not None, WAIT)
         assert watcher.truth.object_state == SimGroundTruth.OBJECT_RESTING
         goal = Grasp.Goal(controller=Grasp.Goal.FORTE, lift_distance=GRASPS[grasp_object][1],
-                          timeout=60.0)
+                          lift_speed=LIFT_SPEED, timeout=90.0)
         accepted, result, feedback = watcher.grasp(goal, timeout=180.0)
         assert accepted, watcher.last_grasp_state
         assert result is not None, ('no result', watcher.last_grasp_state)
         # the claim against the scene's ground truth (which the controller never sees): the
         # object hangs from the fingers, carried clear of the table
         truth = watcher.truth
-        assert truth.object_state == SimGroundTruth.OBJECT_HELD, (result, truth)
+        link = {key: value for key, value in
+                watcher.status_values('perception: pipeline').items()
+                if key in ('input gaps', 'lost samples', 'sequence gaps', 'messages',
+                           'processing p99 [us]', 'driver dropped frames')}
+        assert truth.object_state == SimGroundTruth.OBJECT_HELD, (result, truth, link)
         assert truth.object_height > CARRIED_HEIGHT, (result, truth)
         # the controller's own verdict is reported, not trusted; a fault is a failure of the
         # graph on the twin
@@ -123,5 +135,7 @@ def test_a_forte_grasp_on_the_bench_twin_holds_the_object(grasp_object: str):
         values = watcher.status_values('perception: pipeline')
         assert values['model trained on device'] == 'simulator', values
         assert len(values['sensor device']) == 16 and values['sensor firmware'], values
-        print(f'{watcher.truth.object_name}: outcome {result.outcome} ({result.message}), '
+        print(f'perception input: {link}')
+        print(f'{watcher.truth.object_name} {truth.object_height * 1e3:.1f} mm up: outcome '
+              f'{result.outcome} ({result.message}), '
               f'{len(feedback)} feedback messages, lift {watcher.truth.lift_height:.4f} m')

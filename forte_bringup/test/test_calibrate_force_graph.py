@@ -18,10 +18,18 @@ from collections import Counter
 
 import numpy as np
 import pytest
+from graph_probe import wait_for, watching
 
+from forte_bringup.bringup import Bringup
 from forte_bringup.closed_loop import run_trial
 from forte_driver.replay.bags import BagReadReport, read_bag
-from forte_perception.calibration import cross_validate, load_calibration, make_rows, train_model
+from forte_perception.calibration import (
+    cross_validate,
+    load_calibration,
+    make_rows,
+    train_model,
+    training_sensor,
+)
 from forte_ros.testing import NodeProcess, ros_args
 from forte_sim.dataset import QUICK_PROTOCOL, generate_calibration_dataset
 
@@ -90,11 +98,44 @@ def test_quick_calibration_through_ros_trains_a_model_that_holds_the_raspberry(t
           f'{reference:.4f} N (forte_sim_dataset)')
     assert abs(measured - reference) <= 0.10 * reference
     # the model it produced lifts and holds the raspberry (closed loop, ground truth)
-    model = train_model(ros_rows, C=10.0, epsilon=0.02)
+    model = train_model(ros_rows, C=10.0, epsilon=0.02,
+                        metadata={'sensor': training_sensor(dataset)})
     for seed in (0, 1):
         result = run_trial('raspberry', 'FORTE', seed=seed, model=model)
         assert result.outcome == 'LIFTED' and result.object_state == 'HELD', result
         assert result.success, result
+    # ... and in the sim graph, loaded by the perception node (same sensor: the simulator)
+    model.save(tmp_path / 'calibrated_model.npz')
+    raspberry_in_the_sim_graph(tmp_path / 'calibrated_model.npz', tmp_path / 'logs')
+
+
+def raspberry_in_the_sim_graph(model_path, log_dir) -> None:
+    """A FORTE grasp of the raspberry in the sim graph (forte_bringup, every node a process)
+    with the force model at ``model_path``: LIFTED and, in the ground truth, HELD."""
+    from forte_msgs.action import Grasp
+    from forte_msgs.msg import SimGroundTruth
+
+    bringup = Bringup('sim', {'object': 'raspberry', 'force_model': str(model_path),
+                              'real_time_factor': '0.5'}, log_dir=log_dir, echo=None)
+    with watching() as watcher:
+        bringup.start(timeout=60.0)
+        try:
+            assert wait_for(lambda: watcher.counts['tared'] > 20, 30.0), watcher.counts
+            assert wait_for(lambda: watcher.counts['joint_states'] > 10, 30.0)
+            assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, 30.0)
+            assert wait_for(lambda: watcher.status_values('perception: pipeline'), 10.0)
+            values = watcher.status_values('perception: pipeline')
+            assert values['force model'] == 'loaded', values
+            assert values['model trained on device'] == values['sensor device'] == 'simulator'
+            goal = Grasp.Goal(controller=Grasp.Goal.FORTE, lift_distance=0.01, timeout=60.0)
+            accepted, result, _ = watcher.grasp(goal, timeout=120.0)
+            assert accepted and result is not None, watcher.last_grasp_state
+            truth = watcher.truth
+            assert (result.outcome, truth.object_state) == (
+                Grasp.Result.LIFTED, SimGroundTruth.OBJECT_HELD), (result.message, truth)
+            assert truth.object_height > 0.005, truth
+        finally:
+            bringup.stop()
 
 
 def test_an_interrupted_session_resumes_without_losing_or_repeating_a_trial(tmp_path):
