@@ -287,7 +287,8 @@ class RosCalibrationRig:
 
     # ------------------------------------------------------------------ readiness
     async def check_ready(self) -> None:
-        """Wait up to ``ready_timeout`` for fresh frames and load-cell samples.
+        """Wait up to ``ready_timeout`` for fresh frames and load-cell samples, joint states
+        and a gripper listening to the commands.
 
         Raises
         ------
@@ -302,7 +303,10 @@ class RosCalibrationRig:
             now = time.monotonic()
             frames_fresh = self._last_frame_wall is not None and now - self._last_frame_wall < stale
             load_fresh = self._last_load_wall is not None and now - self._last_load_wall < stale
-            if frames_fresh and load_fresh and self._joint is not None:
+            # a command published before the gripper's subscription matched is lost
+            # (volatile QoS): the gripper must be listening before the first move
+            listening = self._command_publisher.get_subscription_count() > 0
+            if frames_fresh and load_fresh and self._joint is not None and listening:
                 return
             if now > deadline:
                 break
@@ -311,8 +315,11 @@ class RosCalibrationRig:
             raise RigError(self._frames_problem(now, timeout))
         if not load_fresh:
             raise RigError(self._load_problem(now, timeout))
-        raise RigError('no joint_states from the gripper: is its driver (or the simulation) '
-                       'running?')
+        if self._joint is None:
+            raise RigError('no joint_states from the gripper: is its driver (or the '
+                           'simulation) running?')
+        raise RigError(f'nothing subscribes to {self._command_topic}: is the gripper driver '
+                       '(or the simulation) running?')
 
     def _frames_problem(self, now: float, timeout: float) -> str:
         if self._last_frame_wall is None:

@@ -38,6 +38,12 @@ class RigError(RuntimeError):
     """The rig cannot go on (stale sensor, no load cell, no contact): the text says why."""
 
 
+#: The theta_zeroF search repeats its closing command this often [s]: the same goal and
+#: speed again (harmless to a servo already moving there), so a command published before
+#: the gripper's subscription matched, or lost, does not leave the gripper standing open.
+RESEND_SECONDS = 0.5
+
+
 class DeviceMismatch(RigError):
     """The sensor is not the one the session was recorded with (another board, firmware,
     rate, channel order or full scale): its trials cannot go into one dataset."""
@@ -349,10 +355,15 @@ class ForceCalibration:
         sensor_ns: int | None = None
         load_seen = frames_done
         self.rig.command(c.search_floor, c.search_velocity)
+        resend = c.samples(RESEND_SECONDS)
+        commanded = frames_done
         while True:
             await self.rig.wait_samples(frames_done + 1)
             times, frames = buffer.frames_from(frames_done)
             frames_done += len(frames)
+            if frames_done - commanded >= resend:  # a command lost in transit is repeated
+                self.rig.command(c.search_floor, c.search_velocity)
+                commanded = frames_done
             hit = rule.sensor(frames)
             if hit is not None and sensor_ns is None:
                 sensor_ns = int(times[hit])
