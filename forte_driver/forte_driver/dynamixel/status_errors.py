@@ -14,8 +14,10 @@ Every status packet a servo sends carries one error byte (e-manual, protocol 2.0
 
 dynamixel-sdk 4.1.0 (Python) drops the error byte of each servo's reply inside
 ``GroupSyncRead.rxPacket`` (the C++ SDK has ``getError(id)``, the installed Python one does
-not), so :func:`sync_read_with_status` receives the replies itself, one ``readRx`` per
-servo exactly as ``rxPacket`` does, and keeps each error byte.
+not), so :func:`sync_read_with_status` receives the replies itself, one status packet per
+servo as ``rxPacket`` does, keeps each error byte and checks each packet's length (the
+SDK's ``readRx`` checks only the id, so a late reply of another instruction of that servo
+would be sliced into data).
 
 Pure Python apart from dynamixel-sdk (no rclpy).
 """
@@ -25,6 +27,13 @@ import collections
 from dataclasses import dataclass
 
 from dynamixel_sdk import COMM_SUCCESS, GroupSyncRead, PacketHandler, PortHandler
+from dynamixel_sdk.protocol2_packet_handler import (
+    PKT_ERROR,
+    PKT_ID,
+    PKT_LENGTH_H,
+    PKT_LENGTH_L,
+    PKT_PARAMETER0,
+)
 
 from forte_driver.dynamixel import control_table as ct
 
@@ -177,9 +186,33 @@ def sync_read_with_status(reader: GroupSyncRead, packet_handler: PacketHandler,
         raise DynamixelError(f'{what}: {packet_handler.getTxRxResult(result)}')
     replies = {}
     for servo_id in reader.data_dict:
-        data, result, error = packet_handler.readRx(port, servo_id, reader.data_length)
+        replies[servo_id] = _status_packet(packet_handler, port, servo_id,
+                                           reader.data_length, what)
+    return replies
+
+
+#: Bytes a status packet's LENGTH field counts besides its data: instruction, error, CRC.
+STATUS_LENGTH_OVERHEAD = 4
+
+
+def _status_packet(packet_handler: PacketHandler, port: PortHandler, servo_id: int,
+                   data_length: int, what: str) -> tuple[bytes, int]:
+    """The next status packet of ``servo_id``: (its ``data_length`` data bytes, error byte).
+    Packets of other ids are skipped (as the SDK does); one of another length without an
+    error number is the late reply of another instruction and raises DynamixelError (its
+    bytes are not data)."""
+    while True:
+        packet, result = packet_handler.rxPacket(port, False)
         if result != COMM_SUCCESS:
             raise DynamixelError(f'{what}: servo {servo_id}: '
                                  f'{packet_handler.getTxRxResult(result)}')
-        replies[servo_id] = (bytes(data), error)
-    return replies
+        if packet[PKT_ID] == servo_id:
+            break
+    length = packet[PKT_LENGTH_L] | packet[PKT_LENGTH_H] << 8
+    refused = packet[PKT_ERROR] & ERROR_NUMBER_MASK  # a refusal may carry no data
+    if length != data_length + STATUS_LENGTH_OVERHEAD and not refused:
+        raise DynamixelError(f'{what}: servo {servo_id}: a status packet of '
+                             f'{length - STATUS_LENGTH_OVERHEAD} data bytes, expected '
+                             f'{data_length} (the late reply of another instruction)')
+    data = bytes(packet[PKT_PARAMETER0 + 1:PKT_PARAMETER0 + 1 + data_length])
+    return data, packet[PKT_ERROR]

@@ -8,6 +8,8 @@ driver reads Hardware Error Status(70) and Torque Enable(64) once, and refuses c
 while the servo's shutdown keeps its torque off. Tests run the real dynamixel-sdk against
 the simulated XM430-W350 pair, which injects each error kind on demand.
 """
+import time
+
 import pytest
 from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, PacketHandler
 
@@ -20,7 +22,11 @@ from forte_driver.dynamixel.gripper import (
     GripperLimits,
     StatusError,
 )
-from forte_driver.dynamixel.status_errors import StatusErrorCounts, status_error_kinds
+from forte_driver.dynamixel.status_errors import (
+    StatusErrorCounts,
+    status_error_kinds,
+    sync_read_with_status,
+)
 from forte_sim.bench_devices.servo_faults import StatusFaults
 from forte_sim.bench_devices.simulated_servo import SimulatedServoProcess
 
@@ -241,3 +247,66 @@ def test_a_silent_servo_is_still_a_communication_failure_not_a_status_error(bus,
     assert not isinstance(raised.value, StatusError)
     handler = PacketHandler(2.0)
     assert handler.ping(gripper.port, 2)[1] == COMM_RX_TIMEOUT
+
+
+# -- a reply that came after its timeout -----------------------------------------------------
+
+
+class _AlreadySent:
+    """The state sync read as it stands once its instruction went out: the ids, the block
+    length, and a send that already happened (the late reply then lands on the port)."""
+
+    def __init__(self, reader):
+        self.data_dict, self.data_length = reader.data_dict, reader.data_length
+
+    def txPacket(self) -> int:
+        return COMM_SUCCESS
+
+
+def _leave_a_late_reply(port, servo_id: int) -> int:
+    """Send READ Hardware Error Status(70) to ``servo_id`` and do not receive its reply, as
+    when the driver's timeout expired before the servo answered; returns the reply's size
+    in bytes once it is waiting on the port (header 3, reserved, id, length 2, instruction,
+    error, 1 data byte, CRC 2)."""
+    handler = PacketHandler(2.0)
+    packet = [0] * 14
+    packet[4], packet[7] = servo_id, proto.INSTRUCTION_READ
+    packet[8:12] = [ct.HARDWARE_ERROR_STATUS.address, 0, 1, 0]
+    packet[5], packet[6] = 7, 0
+    assert handler.txPacket(port, packet) == COMM_SUCCESS
+    port.is_using = False  # what the SDK's receive does when it gives up
+    expected = 12
+    for _ in range(200):
+        if port.ser.in_waiting >= expected:
+            break
+        time.sleep(0.005)
+    assert port.ser.in_waiting == expected
+    return expected
+
+
+def test_a_late_reply_waiting_on_the_port_is_not_taken_for_the_next_answer(bus, gripper):
+    """Bytes left on the half-duplex bus before an instruction (a reply that came after
+    its timeout) are dropped when the next instruction is sent (dynamixel-sdk clears the
+    input): the sync read decodes the present positions, not the late 1-byte reply."""
+    truth = {finger.name: bus.register_value(finger.servo_id, 'Present Position')
+             for finger in gripper.config.fingers}
+    _leave_a_late_reply(gripper.port, 2)
+    state = gripper.read_state()
+    for name, raw in truth.items():
+        assert state[name].raw_position == raw
+    _leave_a_late_reply(gripper.port, 1)
+    mode = bus.register_value(1, 'Operating Mode')
+    assert mode != 0 and gripper.read_register(1, ct.OPERATING_MODE) == mode  # single reads
+
+
+def test_a_status_packet_of_another_length_is_not_data(bus, gripper):
+    """A late reply that lands after the next instruction was sent (a slow servo, a busy
+    host): the receive loop sees the first servo's 1-byte reply where a state block was
+    asked for; the driver raises (as for a lost reply) instead of slicing it into a state."""
+    first = next(iter(gripper._state_read.data_dict))
+    _leave_a_late_reply(gripper.port, first)
+    expected = (f'servo {first}: a status packet of 1 data bytes, '
+                f'expected {ct.STATE_BLOCK_LENGTH} ')
+    with pytest.raises(DynamixelError, match=expected + '.*late reply'):
+        sync_read_with_status(_AlreadySent(gripper._state_read), gripper.packet_handler,
+                              gripper.port, 'sync read of state')
