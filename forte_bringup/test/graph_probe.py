@@ -353,9 +353,14 @@ def write_quiet_bag(path: Path, messages: int = 600, first_second: int = 1000,
 def _device_processes(commands: list[list[str]], links: tuple[Path, Path], timeout: float,
                       what: str) -> Iterator[tuple[Path, Path]]:
     """Run ``python -m <command>`` for each of ``commands`` until they created ``links``;
-    on exit stop each with SIGINT (SIGKILL after 10 s)."""
-    processes = [subprocess.Popen([sys.executable, '-m', *command], stdout=subprocess.DEVNULL,
-                                  stderr=subprocess.STDOUT) for command in commands]
+    on exit stop each with SIGINT (SIGKILL after 10 s). Each one's output goes to
+    ``<module>.log`` beside the first link (what a failing test shows)."""
+    links[0].parent.mkdir(parents=True, exist_ok=True)
+    processes = []
+    for command in commands:
+        with open(links[0].parent / f'{command[0].rsplit(".", 1)[-1]}.log', 'w') as log:
+            processes.append(subprocess.Popen([sys.executable, '-m', *command], stdout=log,
+                                              stderr=subprocess.STDOUT))
     try:
         assert wait_for(lambda: all(link.exists() for link in links), timeout), (
             f'{what} did not create {" and ".join(str(link) for link in links)}')

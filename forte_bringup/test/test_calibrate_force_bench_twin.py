@@ -27,6 +27,13 @@ INDENTOR = 'flat_wide'
 STALE = 2.0
 
 
+def _log_tails(folder, lines: int = 15) -> str:
+    """The last lines of each driver's log (what a failure in CI needs to be understood)."""
+    return ''.join(f'\n--- {log.name}\n' + '\n'.join(log.read_text().splitlines()[-lines:])
+                   for log in sorted([*(folder / 'logs').glob('*.log'),
+                                      *(folder / 'bench').glob('*.log')]))
+
+
 def test_the_procedure_calibrates_on_the_bench_twin_through_the_real_drivers(tmp_path):
     session = tmp_path / 'session'
     with bench_twin(tmp_path, INDENTOR, seed=3, scene='calibration') as (sensor, gripper):
@@ -44,7 +51,7 @@ def test_the_procedure_calibrates_on_the_bench_twin_through_the_real_drivers(tmp
                 deadline = time.monotonic() + 300.0
                 while run.process.poll() is None and time.monotonic() < deadline:
                     time.sleep(0.2)
-                assert run.process.poll() == 0, run.output[-4000:]
+                assert run.process.poll() == 0, run.output[-4000:] + _log_tails(tmp_path)
                 run.kill()  # joins the output pump
         finally:
             bringup.stop()

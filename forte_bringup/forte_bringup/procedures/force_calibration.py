@@ -382,8 +382,20 @@ class ForceCalibration:
                                'search')
             if frames_done > limit:
                 self.rig.command(start)
-                raise RigError(f'no contact down to {c.search_floor:.3f} rad: is the '
-                               'indentor mounted between the fingers?')
+                raise RigError(self._no_contact(start))
+
+    def _no_contact(self, start: float) -> str:
+        """Why the search ended without contact: the fingers reached the floor with
+        nothing between them, or they did not close (the gripper did not follow)."""
+        c = self.config
+        reached = self.rig.joint_position
+        if reached is None or reached > c.search_floor + 0.5 * (start - c.search_floor):
+            where = 'no joint_states' if reached is None else f'at {reached:.3f} rad'
+            return (f'the gripper did not close: commanded {c.search_floor:.3f} rad at '
+                    f'{c.search_velocity:g} rad/s from {start:.3f} rad, it is {where}: check '
+                    'the gripper driver (active? its diagnostics, gripper/command)')
+        return (f'no contact down to {reached:.3f} rad: is the indentor mounted between '
+                'the fingers?')
 
     def _check_load_sign(self, load: np.ndarray, sensor_ns: int | None,
                          load_times: np.ndarray, start: float) -> None:

@@ -203,6 +203,19 @@ def test_refuses_without_load_cell_data_or_with_a_load_cell_of_the_wrong_sign(tm
     assert not SessionStore(tmp_path / 'inverted', CONFIG).done_count()
 
 
+def test_a_gripper_that_does_not_follow_is_named_not_taken_for_a_missing_indentor(tmp_path):
+    class Unpowered(SceneRig):
+        """The fingers stay where they are, whatever is commanded."""
+
+        def command(self, angle, profile_velocity=0.0):
+            self.commands.append((float(angle), float(profile_velocity)))
+
+    with pytest.raises(RigError, match=r'the gripper did not close: commanded 0\.000 rad '
+                                       r'at 0\.05 rad/s from 0\.\d+ rad, it is at 0\.\d+ rad'):
+        run(tmp_path, Unpowered())
+    assert not SessionStore(tmp_path, CONFIG).done_count()
+
+
 def test_a_session_folder_of_other_settings_is_refused(reference):
     folder, _ = reference
     other = ForceCalibrationConfig(protocol=CalibrationProtocol(trials_per_indentor=5),

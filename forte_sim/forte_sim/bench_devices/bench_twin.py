@@ -47,6 +47,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+import traceback
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -117,6 +118,9 @@ class BenchTwin:
         self._produced = 0  # scene samples produced so far
         self._origin_us = 0  # device time of scene sample 0 [us]
         self._stop = threading.Event()
+        self.failure = ''
+        """Why the scene thread stopped (empty while it runs): from then on the servos no
+        longer follow the scene and the scene advances only with the sensor's scans."""
         self._thread: threading.Thread | None = None
         self._drives = self._servo_drives()
         self._registers: dict[int, dict] = {}
@@ -222,9 +226,13 @@ class BenchTwin:
                 self._step(count)
 
     def _run(self) -> None:
-        while not self._stop.wait(STEP_PERIOD):
-            self._exchange()
-            self.advance_to(self.sample_index_at(self.sensor.device_time_us()))
+        try:
+            while not self._stop.wait(STEP_PERIOD):
+                self._exchange()
+                self.advance_to(self.sample_index_at(self.sensor.device_time_us()))
+        except Exception as error:  # the servos stop following the scene: say so
+            self.failure = f'{type(error).__name__}: {error}'
+            traceback.print_exc()
 
     def _exchange(self) -> None:
         """One exchange with the servo process: the latest drives in, the registers out."""

@@ -126,6 +126,14 @@ class BenchTwinNode(Node):
         self._last_cmd_vel = -float('inf')
         faults = parse_faults(self.values['sensor_fault'])
         scene = make_scene(self.values['scene'], self.values['object'], self.values['seed'])
+        # everything _keep_truth touches exists before the twin's scene thread starts
+        self._truth_publisher = self.create_publisher(SimGroundTruth, 'sim/ground_truth',
+                                                      GROUND_TRUTH)
+        self._load_cell_publisher = None
+        self._load_cell_chunks: list[SceneTruth] = []  # guarded by _truth_lock
+        if scene.name == 'calibration':
+            self._load_cell_publisher = self.create_publisher(
+                WrenchStamped, 'load_cell/wrench', LOAD_CELL)
         Path(self.values['sensor_link']).parent.mkdir(parents=True, exist_ok=True)
         self.twin = BenchTwin(self.values['sensor_link'], scene, on_truth=self._keep_truth,
                               faults=faults)
@@ -134,13 +142,6 @@ class BenchTwinNode(Node):
         self._servo_link.parent.mkdir(parents=True, exist_ok=True)
         self._servo_link.unlink(missing_ok=True)
         os.symlink(self.twin.servo_device, self._servo_link)
-        self._truth_publisher = self.create_publisher(SimGroundTruth, 'sim/ground_truth',
-                                                      GROUND_TRUTH)
-        self._load_cell_publisher = None
-        self._load_cell_chunks: list[SceneTruth] = []  # guarded by _truth_lock
-        if scene.name == 'calibration':
-            self._load_cell_publisher = self.create_publisher(
-                WrenchStamped, 'load_cell/wrench', LOAD_CELL)
         self.create_subscription(TwistStamped, 'arm/cmd_vel', self._on_cmd_vel, COMMANDS)
         self.create_subscription(String, 'sim/operator_press', self._on_press, COMMANDS)
         self.create_timer(1.0 / self.values['truth_rate'], self._tick)
@@ -175,6 +176,10 @@ class BenchTwinNode(Node):
         self._last_cmd_vel = time.monotonic()
 
     def _tick(self) -> None:
+        if self.twin.failure:
+            self.get_logger().error(f'the bench twin\'s scene thread stopped '
+                                    f'({self.twin.failure}): the servos no longer follow the '
+                                    'scene; restart the bench twin', throttle_duration_sec=5.0)
         timeout = float(self.get_parameter('cmd_vel_timeout').value)
         if time.monotonic() - self._last_cmd_vel > timeout:
             self.twin.set_arm_velocity(0.0)

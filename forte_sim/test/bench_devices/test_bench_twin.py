@@ -100,3 +100,18 @@ def test_the_arm_velocity_lifts_the_scene_and_truth_is_reported(tmp_path):
     assert 0.0 < height <= 0.01 * elapsed + 1e-9
     assert sum(len(truth.lift_height) for truth in truths) == pytest.approx(
         elapsed / SAMPLE_PERIOD)
+
+
+def test_a_scene_thread_that_fails_says_why(tmp_path):
+    """An exception in the scene thread (here the truth consumer) is kept in ``failure``
+    for the node to report, not lost with the thread."""
+    def consumer_not_ready(truth):
+        raise AttributeError('the consumer is not ready')
+
+    with BenchTwin(str(tmp_path / 'sensor'), make_scene('empty', seed=1),
+                   on_truth=consumer_not_ready) as bench:
+        assert bench.failure == ''
+        deadline = time.monotonic() + 5.0
+        while not bench.failure and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert bench.failure == 'AttributeError: the consumer is not ready'
