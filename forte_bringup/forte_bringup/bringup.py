@@ -15,6 +15,7 @@ Usage::
     forte_bringup replay bag:=out/bags/run1 rate:=2.0
     forte_bringup hardware sensor_port:=/dev/forte_sensor gripper_port:=/dev/forte_gripper \\
         arm_cmd_vel_topic:=/servo_node/delta_twist_cmds
+    forte_bringup sim namespace:=right prefix:=right_   # a second gripper on the domain
 
 Arguments are the launch files' (``name:=value``; ``forte_bringup <graph> --help`` lists
 them). ROS network: unless ``--domain-id`` is given or ``ROS_DOMAIN_ID`` is set, a free
@@ -38,15 +39,21 @@ from typing import Any, TextIO
 
 from forte_bringup.graph import (
     GRAPHS,
+    NO_FORCE_MODEL_WARNING,
     RECORDER,
     TRANSITION_ATTEMPTS,
     TRANSITION_RETRY_DELAY,
     GraphSpec,
     NodeSpec,
     argument_settings,
+    clock_remappings,
+    force_model_source,
+    graph_namespace,
+    namespaced_parameter_file,
     overlay_nodes,
     parameter_text,
     params_file,
+    recorder_topics,
 )
 from forte_ros.isolation import isolate_ros_network
 
@@ -109,19 +116,27 @@ def node_command(
     overlay : Path, optional
         Parameter overlay for this node, loaded after ``params`` (``params_overlay``).
 
+    A ``namespace`` argument starts the node in it (``-r __ns:=``); ``params`` and ``overlay``
+    must then be keyed for it (:func:`forte_bringup.graph.namespaced_parameter_file`).
+
     Raises
     ------
     BringupError
-        If an argument value is not of its kind (e.g. ``rate:=fast``).
+        If an argument value is not of its kind (e.g. ``rate:=fast``), or the namespace or
+        prefix is not valid.
     """
-    command = [executable or find_executable(spec.package, spec.executable), '--ros-args',
-               '-r', f'__node:={spec.name}', '--params-file', str(params)]
-    if overlay is not None:
-        command += ['--params-file', str(overlay)]
     try:
+        namespace = graph_namespace(arguments.get('namespace', ''))
         remappings, parameters = argument_settings(spec, arguments, graph)
     except ValueError as error:
         raise BringupError(str(error)) from error
+    command = [executable or find_executable(spec.package, spec.executable), '--ros-args',
+               '-r', f'__node:={spec.name}']
+    if namespace:
+        command += ['-r', f'__ns:={namespace}']
+    command += ['--params-file', str(params)]
+    if overlay is not None:
+        command += ['--params-file', str(overlay)]
     for source, target in remappings:
         command += ['-r', f'{source}:={target}']
     for parameter, value in parameters.items():  # untyped without a graph: the text as given
@@ -239,6 +254,19 @@ class Bringup:
         except ValueError as error:
             raise BringupError(str(error)) from error
         self.overlay = Path(overlay) if overlay else None
+        try:
+            #: absolute namespace of every node ('' = root)
+            self.namespace = graph_namespace(self.arguments.get('namespace', ''))
+            # under a namespace the nodes read copies keyed by their namespaced names
+            self._node_params = namespaced_parameter_file(self.params, self.namespace)
+            self._node_overlay = (namespaced_parameter_file(self.overlay, self.namespace)
+                                  if self.overlay is not None else None)
+        except ValueError as error:
+            raise BringupError(str(error)) from error
+        #: where perception's force model comes from (graph.force_model_source): 'sim' =
+        #: the simulated rig's cached model, made at start() if missing
+        self.force_model_source = force_model_source(self.graph, self.arguments, self.params,
+                                                     self.overlay)
         if graph == 'replay' and not self.arguments.get('bag'):
             raise BringupError('the replay graph needs bag:=<bag folder or .mcap file>')
         self.extra_parameters = extra_parameters or {}
@@ -256,9 +284,14 @@ class Bringup:
     def commands(self) -> dict[str, list[str]]:
         """Command line of every process of the graph (nodes, then the recorder)."""
         out = {}
+        arguments = dict(self.arguments)
+        if self.force_model_source == 'sim':
+            from forte_bringup.sim_force_model import force_model_path
+
+            arguments['force_model'] = str(force_model_path())  # made by start()
         for spec in self.graph.nodes:
-            overlay = self.overlay if {spec.name, '/**'} & self.overlay_nodes else None
-            command = node_command(spec, self.params, self.arguments, graph=self.graph,
+            overlay = self._node_overlay if {spec.name, '/**'} & self.overlay_nodes else None
+            command = node_command(spec, self._node_params, arguments, graph=self.graph,
                                    overlay=overlay)
             for parameter, value in self.extra_parameters.get(spec.name, {}).items():
                 command += ['-p', f'{parameter}:={parameter_text(value)}']
@@ -269,8 +302,18 @@ class Bringup:
             command = [find_executable(RECORDER.package, RECORDER.executable)]
             if self.arguments.get('bag_output'):
                 command += ['-o', self.arguments['bag_output']]
-            out['recorder'] = command + ['--ros-args', '-r', f'__node:={RECORDER.name}']
+            command += ['--ros-args', '-r', f'__node:={RECORDER.name}']
+            if self.namespace:  # in the graph's namespace, recording the graph's topics
+                command[1:1] = ['--topics', *recorder_topics(self.namespace)]
+                command += ['-r', f'__ns:={self.namespace}']
+            for source, target in clock_remappings(self.graph, self.arguments):
+                command += ['-r', f'{source}:={target}']
+            out['recorder'] = command
         return out
+
+    def node_path(self, node: str) -> str:
+        """Fully qualified name of the graph's node ``node`` (``/right/sim``, ``/sim``)."""
+        return f'{self.namespace}/{node}'
 
     # start / stop ----------------------------------------------------------------------
     def start(self, timeout: float = 30.0) -> None:
@@ -283,6 +326,7 @@ class Bringup:
             lifecycle transition fails; everything started is stopped again first.
         """
         self.log_dir.mkdir(parents=True, exist_ok=True)
+        self._prepare_force_model()
         try:
             for name, command in self.commands().items():
                 self.children.append(_Child(name, command, self.log_dir, self.echo))
@@ -295,6 +339,20 @@ class Bringup:
             self.stop()
             raise
 
+    def _prepare_force_model(self) -> None:
+        """Make the sim graph's default force model if it is not cached; warn on hardware
+        without a model (:data:`forte_bringup.graph.NO_FORCE_MODEL_WARNING`)."""
+        if self.force_model_source == 'sim':
+            from forte_bringup.sim_force_model import default_force_model_file, force_model_path
+
+            if self.echo is not None:
+                self.echo.write("[forte_bringup] force model: the simulated rig's, " + (
+                    f'{force_model_path()}\n' if force_model_path().is_file() else
+                    f'making it (6-13 s, once; cached as {force_model_path()})\n'))
+            default_force_model_file()
+        elif self.force_model_source == 'none' and self.graph.name == 'hardware':
+            print(f'[forte_bringup] warning: {NO_FORCE_MODEL_WARNING}', file=sys.stderr)
+
     def _start_manager(self) -> None:
         import rclpy
         from rclpy.context import Context
@@ -302,7 +360,8 @@ class Bringup:
 
         self._context = Context()
         rclpy.init(context=self._context)
-        self._manager = rclpy.create_node('forte_bringup_manager', context=self._context)
+        self._manager = rclpy.create_node('forte_bringup_manager', context=self._context,
+                                          namespace=self.namespace or None)
         self._executor = SingleThreadedExecutor(context=self._context)
         self._executor.add_node(self._manager)
 
@@ -322,12 +381,12 @@ class Bringup:
                 )
 
     def _wait_for_nodes(self, timeout: float) -> None:
-        wanted = {spec.name for spec in self.graph.nodes}
+        wanted = {(spec.name, self.namespace or '/') for spec in self.graph.nodes}
         deadline = time.monotonic() + timeout
         while True:
             self.check_children()
-            present = {name for name, _ in self._manager.get_node_names_and_namespaces()}
-            missing = wanted - present
+            present = set(self._manager.get_node_names_and_namespaces())
+            missing = {name for name, _ in wanted - present}
             if not missing:
                 return
             if time.monotonic() > deadline:
@@ -357,7 +416,7 @@ class Bringup:
         """Current lifecycle state label of ``node`` (``unconfigured``, ``inactive``, ...)."""
         from lifecycle_msgs.srv import GetState
 
-        return self._call(GetState, f'/{node}/get_state', GetState.Request(),
+        return self._call(GetState, f'{self.node_path(node)}/get_state', GetState.Request(),
                           timeout).current_state.label
 
     def change_state(self, node: str, transition: int, timeout: float = 10.0) -> None:
@@ -372,7 +431,7 @@ class Bringup:
 
         request = ChangeState.Request()
         request.transition.id = transition
-        response = self._call(ChangeState, f'/{node}/change_state', request, timeout)
+        response = self._call(ChangeState, f'{self.node_path(node)}/change_state', request, timeout)
         label = {1: 'configure', 2: 'cleanup', 3: 'activate',
                  4: 'deactivate'}.get(transition, transition)
         if not response.success:
@@ -428,7 +487,8 @@ class Bringup:
 
         request = SetParameters.Request(parameters=[
             Parameter(name, value=value).to_parameter_msg() for name, value in values.items()])
-        response = self._call(SetParameters, f'/{node}/set_parameters', request, timeout)
+        response = self._call(SetParameters, f'{self.node_path(node)}/set_parameters', request,
+                              timeout)
         refused = [f'{name}: {result.reason}' for name, result
                    in zip(values, response.results, strict=True) if not result.successful]
         if refused:

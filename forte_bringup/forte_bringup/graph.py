@@ -5,10 +5,19 @@ launch`` on a ROS 2 install) and :mod:`forte_bringup.bringup` (``forte_bringup``
 machine) both build their processes from :data:`GRAPHS`, so both start the same node
 executables under the same node names, with the same parameter file and remappings.
 Pure data (no rclpy, no launch).
+
+Several graphs share one ROS domain through the ``namespace`` and ``prefix`` arguments
+(:func:`graph_namespace`, :func:`check_prefix`): the namespace holds every node, topic,
+service and action of the graph (a namespaced sim graph also moves its clock to
+``<namespace>/clock``), the prefix is prepended to every frame id and joint name its nodes
+publish or consume (their ``prefix`` parameter). Only ``/rosout``, ``/parameter_events``,
+``/diagnostics`` (and ``/tf``, ``/tf_static`` where a graph publishes TF) stay global.
 """
 from __future__ import annotations
 
 import os
+import re
+import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,6 +45,9 @@ class NodeSpec:
         ``(parameter, argument name)``: set the parameter from that argument when given.
     fixed_parameters : tuple of (str, object)
         Parameters this graph always sets on the node (after the YAML), e.g. ``dry_run``.
+
+    Every node whose messages carry frame ids or joint names has a ``prefix`` parameter,
+    set from the graph's ``prefix`` argument through ``argument_parameters``.
     """
 
     package: str
@@ -96,13 +108,25 @@ def parameter_text(value: object) -> str:
 
 @dataclass(frozen=True)
 class GraphSpec:
-    """A whole graph: its nodes, its parameter file, its arguments."""
+    """A whole graph: its nodes, its parameter file, its arguments.
+
+    ``private_clock``: the graph publishes its own ``/clock`` (the simulator); under a
+    namespace every node of the graph then uses ``<namespace>/clock`` instead, so that two
+    simulations on one domain do not drive each other's clocks.
+
+    ``sim_force_model``: without a force model (no ``force_model`` argument, no
+    perception ``model_path`` in the YAML or overlay) perception gets the simulated rig's
+    model (:func:`forte_bringup.sim_force_model.default_force_model_file`); only the sim
+    graph, whose sensor is that rig's.
+    """
 
     name: str
     description: str
     params_file: str
     nodes: tuple[NodeSpec, ...]
     arguments: tuple[Argument, ...] = field(default_factory=tuple)
+    private_clock: bool = False
+    sim_force_model: bool = False
 
     def argument(self, name: str) -> Argument:
         """The argument called ``name``."""
@@ -141,7 +165,8 @@ def argument_settings(spec: NodeSpec, arguments: Mapping[str, str],
     -------
     remappings : list of (str, str)
         The node's fixed remappings, then those its arguments set (a topic remapped to its
-        own name is left out).
+        own name is left out), then ``/clock`` to ``<namespace>/clock`` in a namespaced
+        graph with a private clock (:func:`clock_remappings`).
     parameters : dict
         Parameter name -> value of every argument parameter given, in the order of
         ``spec.argument_parameters`` (the fixed parameters are not included).
@@ -149,13 +174,16 @@ def argument_settings(spec: NodeSpec, arguments: Mapping[str, str],
     Raises
     ------
     ValueError
-        If a value is not of its argument's kind (``argument rate:=fast: ...``).
+        If a value is not of its argument's kind (``argument rate:=fast: ...``), or the
+        ``namespace`` or ``prefix`` is not a valid one.
     """
     remappings = list(spec.remappings)
     for source, argument in spec.argument_remaps:
         target = arguments.get(argument, '')
         if target and target != source:
             remappings.append((source, target))
+    remappings += clock_remappings(graph, arguments)
+    check_prefix(arguments.get('prefix', ''))
     parameters: dict[str, object] = {}
     for parameter, argument in spec.argument_parameters:
         value = arguments.get(argument, '')
@@ -170,13 +198,17 @@ def argument_settings(spec: NodeSpec, arguments: Mapping[str, str],
     return remappings, parameters
 
 
+#: ``(parameter, argument)`` of the TF / joint-name prefix, on every node that has one.
+PREFIX = ('prefix', 'prefix')
+
 PERCEPTION = NodeSpec(
     'forte_perception', 'perception_node', 'perception',
-    argument_parameters=(('model_path', 'force_model'),),
+    argument_parameters=(('model_path', 'force_model'), PREFIX),
 )
 CONTROL = NodeSpec(
     'forte_control', 'grasp_controller_node', 'grasp_controller',
     argument_remaps=(('arm/cmd_vel', 'arm_cmd_vel_topic'),),
+    argument_parameters=(PREFIX,),
 )
 
 #: Lifecycle transitions a node may refuse before its graph gives up on it, and the pause
@@ -199,6 +231,12 @@ COMMON_ARGUMENTS = (
     Argument('bag_output', '', 'bag folder to record to (default out/bags/forte_<time>)'),
     Argument('params_overlay', '', 'second parameter YAML applied after params_file to the '
              'nodes it names (e.g. the slip setting written by forte_tune_slip); empty: none'),
+    Argument('namespace', '', 'ROS namespace of every node, topic, service and action of '
+             'the graph, e.g. right (node names unchanged inside it; a sim graph also uses '
+             '<namespace>/clock); empty: the root namespace'),
+    Argument('prefix', '', 'TF / joint-name prefix prepended to every frame id and joint '
+             'name the nodes publish, e.g. right_ (right_forte_base_link, '
+             'right_forte_left_finger_joint); empty: none'),
 )
 
 GRAPHS: dict[str, GraphSpec] = {
@@ -209,9 +247,9 @@ GRAPHS: dict[str, GraphSpec] = {
         'hardware.yaml',
         (
             NodeSpec('forte_driver', 'serial_sensor_node', 'serial_sensor', lifecycle=True,
-                     argument_parameters=(('port', 'sensor_port'),)),
+                     argument_parameters=(('port', 'sensor_port'), PREFIX)),
             NodeSpec('forte_driver', 'gripper_driver_node', 'gripper_driver', lifecycle=True,
-                     argument_parameters=(('port', 'gripper_port'),)),
+                     argument_parameters=(('port', 'gripper_port'), PREFIX)),
             PERCEPTION,
             CONTROL,
         ),
@@ -231,7 +269,7 @@ GRAPHS: dict[str, GraphSpec] = {
         (
             NodeSpec('forte_sim', 'sim_node', 'sim', lifecycle=True,
                      argument_parameters=(('object', 'object'), ('seed', 'seed'),
-                                          ('real_time_factor', 'real_time_factor'))),
+                                          ('real_time_factor', 'real_time_factor'), PREFIX)),
             PERCEPTION,
             CONTROL,
         ),
@@ -246,6 +284,8 @@ GRAPHS: dict[str, GraphSpec] = {
                      'as possible; perception and control follow on /clock; empty: the YAML '
                      'value)', kind='float'),
         ),
+        private_clock=True,
+        sim_force_model=True,
     ),
     'replay': GraphSpec(
         'replay',
@@ -258,7 +298,7 @@ GRAPHS: dict[str, GraphSpec] = {
             PERCEPTION,
             NodeSpec('forte_control', 'grasp_controller_node', 'grasp_controller',
                      argument_remaps=(('arm/cmd_vel', 'arm_cmd_vel_topic'),),
-                     fixed_parameters=(('dry_run', True),)),
+                     argument_parameters=(PREFIX,), fixed_parameters=(('dry_run', True),)),
         ),
         (
             *COMMON_ARGUMENTS,
@@ -307,6 +347,195 @@ def overlay_nodes(path: str | Path, graph: GraphSpec) -> set[str]:
             raise ValueError(f'params_overlay {path!r}: {node}: expected a ros__parameters '
                              'mapping')
     return set(document)
+
+
+#: Logged by the front ends when the hardware graph starts without a force model.
+NO_FORCE_MODEL_WARNING = (
+    'no force model (force_model:= empty, no perception model_path in the YAML): FORTE and '
+    'NO_SLIP grasps will end FAULT INVALID_INPUT (no valid force estimate); ON_OFF works. '
+    'Calibrate this gripper (ros2 launch forte_bringup calibrate_force.launch.py '
+    'mode:=hardware, then forte_train_force) and give force_model:=<model.npz>. The '
+    "simulated rig's model is never used on hardware.")
+
+
+def _yaml_parameter(path: str | Path | None, node: str, name: str) -> object | None:
+    """Value of parameter ``name`` of ``node`` in a parameter YAML (None: not set there).
+
+    Looks in the blocks keyed ``/**``, ``node`` and ``/node``; an empty value counts as
+    not set.
+    """
+    if not path:
+        return None
+    try:
+        document = yaml.safe_load(Path(path).read_text(encoding='utf-8'))
+    except (OSError, yaml.YAMLError):
+        return None
+    value = None
+    for key in ('/**', node, f'/{node}'):
+        block = document.get(key) if isinstance(document, dict) else None
+        parameters = block.get('ros__parameters') if isinstance(block, dict) else None
+        if isinstance(parameters, dict) and parameters.get(name) not in (None, ''):
+            value = parameters[name]
+    return value
+
+
+def force_model_source(graph: GraphSpec, arguments: Mapping[str, str],
+                       params: str | Path | None, overlay: str | Path | None = None) -> str:
+    """Where perception's force model comes from in this graph.
+
+    Parameters
+    ----------
+    graph : GraphSpec
+        The graph.
+    arguments : mapping of str to str
+        Argument values (``force_model``).
+    params, overlay : str or Path, optional
+        The parameter YAML and the overlay (perception's ``model_path``).
+
+    Returns
+    -------
+    str
+        ``'argument'`` (``force_model:=``), ``'yaml'`` (the YAML or overlay sets
+        ``model_path``), ``'sim'`` (the sim graph's default: the simulated rig's model,
+        which the front ends then give as ``force_model``) or ``'none'``.
+    """
+    if arguments.get('force_model', ''):
+        return 'argument'
+    if any(_yaml_parameter(path, PERCEPTION.name, 'model_path') for path in (params, overlay)):
+        return 'yaml'
+    return 'sim' if graph.sim_force_model else 'none'
+
+
+#: A ROS namespace token: letters, digits, underscores, not starting with a digit.
+_NAMESPACE_TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*')
+#: A TF / joint-name prefix: letters, digits, underscores and inner slashes (tf2 frame ids
+#: never start with a slash).
+_PREFIX = re.compile(r'[A-Za-z0-9_][A-Za-z0-9_/]*')
+
+
+def graph_namespace(text: str) -> str:
+    """The ``namespace`` argument as an absolute ROS namespace.
+
+    Parameters
+    ----------
+    text : str
+        ``''`` (root), ``right``, ``/right``, ``/robots/right/``, ...
+
+    Returns
+    -------
+    str
+        ``''`` for the root namespace, else ``/token[/token...]`` (no trailing slash).
+
+    Raises
+    ------
+    ValueError
+        If a token is not a valid ROS name (letters, digits, underscores; not starting
+        with a digit; no empty token inside).
+    """
+    stripped = text.strip().strip('/')
+    if not stripped:
+        return ''
+    tokens = stripped.split('/')
+    bad = [token for token in tokens if not _NAMESPACE_TOKEN.fullmatch(token)]
+    if bad:
+        raise ValueError(f'namespace {text!r}: {bad[0]!r} is not a valid ROS name (letters, '
+                         'digits and underscores, not starting with a digit)')
+    return '/' + '/'.join(tokens)
+
+
+def check_prefix(prefix: str) -> str:
+    """The ``prefix`` argument, checked.
+
+    Raises
+    ------
+    ValueError
+        If it is not empty and not letters, digits, underscores and inner slashes.
+    """
+    if prefix and not _PREFIX.fullmatch(prefix):
+        raise ValueError(f'prefix {prefix!r}: expected letters, digits, underscores (e.g. '
+                         'right_), not starting with a slash')
+    return prefix
+
+
+def clock_remappings(graph: GraphSpec | None, arguments: Mapping[str, str]
+                     ) -> list[tuple[str, str]]:
+    """``[('/clock', '<namespace>/clock')]`` for a namespaced graph with a private clock.
+
+    Every node of such a graph (the simulator publishing the clock, the nodes on
+    ``use_sim_time``, the recorder) gets it, so that each simulation keeps its own time.
+
+    Parameters
+    ----------
+    graph : GraphSpec or None
+        The graph (None: no remapping).
+    arguments : mapping of str to str
+        Argument values; ``namespace`` is read.
+
+    Returns
+    -------
+    list of (str, str)
+        The remapping, or nothing (root namespace, or a graph without its own clock).
+    """
+    namespace = graph_namespace(arguments.get('namespace', ''))
+    if graph is None or not graph.private_clock or not namespace:
+        return []
+    return [('/clock', f'{namespace}/clock')]
+
+
+def namespaced_parameter_file(path: str | Path, namespace: str) -> Path:
+    """A copy of a parameter YAML whose node blocks apply to the nodes in ``namespace``.
+
+    rcl matches a block keyed ``sim`` to the node ``/sim`` only; under a namespace the node
+    is ``/right/sim``. The copy keys each relative node name ``name`` as
+    ``<namespace>/name``; ``/**`` and absolute keys stay as they are.
+
+    Parameters
+    ----------
+    path : str or Path
+        The parameter YAML.
+    namespace : str
+        Absolute namespace (:func:`graph_namespace`); '' returns ``path`` unchanged.
+
+    Returns
+    -------
+    Path
+        ``path``, or the copy (a new file in ``<tmp>/forte-params/``).
+
+    Raises
+    ------
+    ValueError
+        If the file cannot be read or is not a mapping of node names.
+    """
+    if not namespace:
+        return Path(path)
+    try:
+        document = yaml.safe_load(Path(path).read_text(encoding='utf-8'))
+    except (OSError, yaml.YAMLError) as exc:
+        raise ValueError(f'parameter file {path!r}: cannot read it ({exc})') from exc
+    if not isinstance(document, dict):
+        raise ValueError(f'parameter file {path!r}: expected node_name: {{ros__parameters: '
+                         '{...}} blocks')
+    rewritten = {(key if str(key).startswith('/') else f'{namespace}/{key}'): block
+                 for key, block in document.items()}
+    folder = Path(tempfile.gettempdir()) / 'forte-params'
+    folder.mkdir(parents=True, exist_ok=True)
+    handle, name = tempfile.mkstemp(prefix=f'{namespace.strip("/").replace("/", "_")}_',
+                                    suffix=f'_{Path(path).name}', dir=folder)
+    with os.fdopen(handle, 'w', encoding='utf-8') as out:
+        yaml.safe_dump(rewritten, out, sort_keys=False)
+    return Path(name)
+
+
+def recorder_topics(namespace: str) -> list[str]:
+    """The topics ``record:=true`` records in a namespaced graph (absolute names).
+
+    The contract's topics (:data:`forte_driver.replay.bags.DEFAULT_TOPICS`) inside
+    ``namespace``; global ones (``/diagnostics``) stay global.
+    """
+    from forte_driver.replay.bags import DEFAULT_TOPICS
+
+    return [spec.name if spec.name.startswith('/') else f'{namespace}/{spec.name}'
+            for spec in DEFAULT_TOPICS]
 
 
 def config_folder() -> Path:

@@ -17,9 +17,21 @@ still come last). Its top-level keys must be node names of the graph (or ``/**``
 a ``ros__parameters`` mapping; anything else stops the launch with the reason. Written e.g.
 by the slip threshold tuning (``forte_tune_slip``,
 ``python -m forte_bringup.procedures.slip_characterisation``).
+
+``namespace:=NAME`` (every graph) starts every node in that namespace (``Node(namespace=)``),
+with copies of the parameter files keyed by the namespaced node names
+(:func:`forte_bringup.graph.namespaced_parameter_file`), and remaps ``/clock`` to
+``NAME/clock`` in the sim graph; ``prefix:=PREFIX`` sets the ``prefix`` parameter of the
+nodes that publish frame ids or joint names.
+
+The sim graph without a force model (no ``force_model:=``, no ``model_path`` in the YAML)
+gives perception the simulated rig's model, made on first use and cached
+(:func:`forte_bringup.sim_force_model.default_force_model_file`, 6-13 s once); the
+hardware graph without one logs :data:`forte_bringup.graph.NO_FORCE_MODEL_WARNING`.
 """
 from __future__ import annotations
 
+import launch.logging
 from launch import Action, LaunchContext, LaunchDescription
 from launch.actions import (
     DeclareLaunchArgument,
@@ -40,18 +52,24 @@ from lifecycle_msgs.msg import Transition
 
 from forte_bringup.graph import (
     GRAPHS,
+    NO_FORCE_MODEL_WARNING,
     RECORDER,
     TRANSITION_ATTEMPTS,
     TRANSITION_RETRY_DELAY,
     NodeSpec,
     argument_settings,
+    clock_remappings,
+    force_model_source,
+    graph_namespace,
+    namespaced_parameter_file,
     overlay_nodes,
+    recorder_topics,
 )
 
 
 def node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
                   overrides: dict[str, object], params_file: str,
-                  overlay: str = '') -> list[Action]:
+                  overlay: str = '', namespace: str = '') -> list[Action]:
     """The actions that start one node (and drive it if it is a lifecycle node).
 
     Parameters
@@ -67,6 +85,9 @@ def node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
         Parameter YAML of the graph.
     overlay : str
         Parameter overlay YAML loaded after ``params_file`` ('' = none).
+    namespace : str
+        Absolute namespace of the node ('' = root); the parameter files must be keyed for
+        it (:func:`forte_bringup.graph.namespaced_parameter_file`).
 
     Returns
     -------
@@ -80,10 +101,10 @@ def node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
         [overrides] if overrides else [])
     if not spec.lifecycle:
         return [Node(package=spec.package, executable=spec.executable, name=spec.name,
-                     namespace='', parameters=parameters, remappings=remappings,
+                     namespace=namespace, parameters=parameters, remappings=remappings,
                      output='screen', emulate_tty=True)]
     node = LifecycleNode(package=spec.package, executable=spec.executable, name=spec.name,
-                         namespace='', parameters=parameters, remappings=remappings,
+                         namespace=namespace, parameters=parameters, remappings=remappings,
                          output='screen', emulate_tty=True)
     configure, activate = (
         EmitEvent(event=ChangeState(lifecycle_node_matcher=matches_action(node),
@@ -138,13 +159,19 @@ def _retry_refused(node: LifecycleNode, name: str, transition: str, fallback_sta
         goal_state=fallback_state, entities=[OpaqueFunction(function=again)]))
 
 
-def _recorder_action(context: LaunchContext) -> Node:
+def _recorder_action(context: LaunchContext, namespace: str = '',
+                     remappings: list[tuple[str, str]] | None = None) -> Node:
     """The ``forte_record`` node (``record:=true``), writing to ``bag_output`` if given.
 
     Parameters
     ----------
     context : LaunchContext
         Context the ``bag_output`` argument is read from.
+    namespace : str
+        Namespace of the graph ('' = root): the recorder runs in it and records the
+        contract's topics inside it (:func:`forte_bringup.graph.recorder_topics`).
+    remappings : list of (str, str), optional
+        Its remappings (the namespaced sim graph's ``/clock``).
 
     Returns
     -------
@@ -152,9 +179,49 @@ def _recorder_action(context: LaunchContext) -> Node:
         The recorder as a launch_ros node of package forte_bringup.
     """
     output = LaunchConfiguration('bag_output').perform(context)
+    arguments = ['-o', output] if output else []
+    if namespace:
+        arguments += ['--topics', *recorder_topics(namespace)]
     return Node(package=RECORDER.package, executable=RECORDER.executable, name=RECORDER.name,
-                namespace='', arguments=['-o', output] if output else [],
+                namespace=namespace, arguments=arguments, remappings=remappings or [],
                 output='screen', emulate_tty=True)
+
+
+def _force_model_actions(graph_name: str, arguments: dict[str, str], params_file: str,
+                         overlay: str) -> list[Action]:
+    """Fill in the sim graph's default force model; warn on hardware without one.
+
+    Parameters
+    ----------
+    graph_name : str
+        The graph.
+    arguments : dict
+        Argument values; ``force_model`` is set here when the sim default applies (the
+        model is made first if it is not cached yet).
+    params_file, overlay : str
+        The parameter YAML and the overlay ('' = none).
+
+    Returns
+    -------
+    list of Action
+        The log line saying which model perception gets (or why none).
+    """
+    graph = GRAPHS[graph_name]
+    source = force_model_source(graph, arguments, params_file, overlay or None)
+    if source == 'sim':
+        from forte_bringup.sim_force_model import default_force_model_file, force_model_path
+
+        made = not force_model_path().is_file()
+        if made:
+            launch.logging.get_logger('forte_bringup').info(
+                "making the simulated rig's force model (6-13 s, once; cached as "
+                f'{force_model_path()})')
+        arguments['force_model'] = str(default_force_model_file())
+        return [LogInfo(msg="force model: the simulated rig's "
+                            f'({"made now" if made else "cached"}): {arguments["force_model"]}')]
+    if source == 'none' and graph_name == 'hardware':
+        return [LogInfo(msg=f'WARNING: {NO_FORCE_MODEL_WARNING}')]
+    return []
 
 
 def graph_launch_description(graph_name: str) -> LaunchDescription:
@@ -187,13 +254,18 @@ def graph_launch_description(graph_name: str) -> LaunchDescription:
                      for argument in graph.arguments}
         overlay = arguments['params_overlay']
         named = overlay_nodes(overlay, graph) if overlay else set()
-        actions = []
+        actions = _force_model_actions(graph_name, arguments, params_file, overlay)
+        namespace = graph_namespace(arguments['namespace'])
+        params_file = str(namespaced_parameter_file(params_file, namespace))
+        overlay = str(namespaced_parameter_file(overlay, namespace)) if overlay else ''
         for spec in graph.nodes:
             actions += node_actions(spec, *argument_settings(spec, arguments, graph),
                                      params_file,
-                                     overlay if {spec.name, '/**'} & named else '')
+                                     overlay if {spec.name, '/**'} & named else '',
+                                     namespace)
         if IfCondition(LaunchConfiguration('record')).evaluate(context):
-            actions.append(_recorder_action(context))
+            actions.append(_recorder_action(context, namespace,
+                                            clock_remappings(graph, arguments)))
         return actions
 
     return LaunchDescription([

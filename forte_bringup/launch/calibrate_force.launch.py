@@ -17,6 +17,11 @@ controller: the procedure alone commands the gripper. The procedure exits when t
 is done (``session_dir``, resumable); ``forte_train_force <session_dir>/calibration.npz``
 then trains the model. ``--show-args`` lists every argument.
 
+``namespace:=NAME`` starts every node of the session in that namespace (the procedure finds
+the sim node and the topics by relative names); ``prefix:=PREFIX`` is the TF / joint-name
+prefix of the sim node or the drivers (forte_bringup.graph; e.g. to calibrate one gripper of
+a robot with two).
+
 Measured in simulation (2-core machine): ``quick:=true`` about 2 min, the full protocol
 (6 x 40 trials) 18 min at the default ``real_time_factor:=4.0``; then
 ``forte_train_force <session_dir>/calibration.npz`` (about 15 min per CV kind for the full
@@ -31,7 +36,14 @@ from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
-from forte_bringup.graph import GRAPHS, Argument, argument_settings
+from forte_bringup.graph import (
+    GRAPHS,
+    Argument,
+    argument_settings,
+    check_prefix,
+    graph_namespace,
+    namespaced_parameter_file,
+)
 from forte_bringup.launch_support import node_actions
 
 #: Every argument: name, default, description, kind of the parameter it sets.
@@ -64,6 +76,10 @@ ARGUMENTS = (
              'the YAML value)'),
     Argument('gripper_port', '', 'mode hardware: serial device of the U2D2 (empty: the '
              'YAML value)'),
+    Argument('namespace', '', 'ROS namespace of every node of the session, e.g. right '
+             '(empty: the root namespace)'),
+    Argument('prefix', '', 'TF / joint-name prefix of the sim node or the drivers, e.g. '
+             'right_ (empty: none)'),
 )
 #: Arguments that set a parameter of the procedure node when not empty.
 PROCEDURE_PARAMETERS = ('session_dir', 'output', 'quick', 'trials_per_indentor', 'seed',
@@ -84,6 +100,8 @@ def _typed(context: LaunchContext) -> dict:
             raise ValueError(f'argument {argument.name}:={text}: {error}') from error
     if values['mode'] not in ('sim', 'hardware'):
         raise ValueError(f"argument mode:={values['mode']}: expected sim or hardware")
+    values['namespace'] = graph_namespace(str(values['namespace']))
+    check_prefix(str(values['prefix']))
     return values
 
 
@@ -92,24 +110,29 @@ def _setup(context: LaunchContext) -> list:
     simulation = values['mode'] == 'sim'
     procedure = {name: values[name] for name in PROCEDURE_PARAMETERS if values[name] != ''}
     procedure.update(simulation=simulation, frames_reliable=True)
+    namespace = values['namespace']
     actions = []
     if simulation:
         actions.append(Node(
-            package='forte_sim', executable='sim_node', name='sim', namespace='',
+            package='forte_sim', executable='sim_node', name='sim', namespace=namespace,
             output='screen', parameters=[{
                 'scene': 'calibration', 'object': 'flat_wide', 'reliable': True,
-                'batch_size': SIM_BATCH, 'real_time_factor': values['real_time_factor']}]))
+                'batch_size': SIM_BATCH, 'real_time_factor': values['real_time_factor'],
+                'prefix': values['prefix']}]))
     else:
         graph = GRAPHS['hardware']
         params_file = values['params_file'] or PathJoinSubstitution(
             [FindPackageShare('forte_bringup'), 'config', graph.params_file]).perform(context)
+        params_file = str(namespaced_parameter_file(params_file, namespace))
+        arguments = {name: str(value) for name, value in values.items()}
         for spec in graph.nodes[:2]:  # serial sensor, gripper driver
-            remappings, overrides = argument_settings(spec, values, graph)
+            remappings, overrides = argument_settings(spec, arguments, graph)
             if spec.name == 'serial_sensor':
                 overrides['reliable'] = True
-            actions += node_actions(spec, remappings, overrides, params_file)
+            actions += node_actions(spec, remappings, overrides, params_file,
+                                    namespace=namespace)
     node = Node(package='forte_bringup', executable='forte_calibrate_force',
-                name='force_calibration', namespace='', output='screen',
+                name='force_calibration', namespace=namespace, output='screen',
                 parameters=[procedure])
     # the session's end (or its refusal) ends the launch
     return [*actions, node, RegisterEventHandler(OnProcessExit(

@@ -6,7 +6,7 @@ nodes, configured and activated on start), perception, grasp control.
 
 ``params_overlay:=FILE`` loads a second parameter YAML after the graph's own, for the
 nodes it names (e.g. the slip setting of forte_tune_slip; forte_bringup.launch_support;
-ros2 launch only: `forte_bringup hardware` does not take it yet).
+`forte_bringup hardware params_overlay:=FILE` the same).
 Nodes, parameter file and arguments come from forte_bringup.graph.GRAPHS['hardware'], the same
 description that `forte_bringup hardware` starts on a machine without ros2 launch.
 `ros2 launch forte_bringup hardware.launch.py --show-args` lists the arguments.

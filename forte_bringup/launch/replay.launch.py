@@ -5,7 +5,7 @@ with dry_run:=true so that no servo or arm command moves anything.
 
 ``params_overlay:=FILE`` loads a second parameter YAML after the graph's own, for the
 nodes it names (e.g. the slip setting of forte_tune_slip; forte_bringup.launch_support;
-ros2 launch only: `forte_bringup replay` does not take it yet).
+`forte_bringup replay params_overlay:=FILE` the same).
 Nodes, parameter file and arguments come from forte_bringup.graph.GRAPHS['replay'], the same
 description that `forte_bringup replay` starts on a machine without ros2 launch.
 `ros2 launch forte_bringup replay.launch.py --show-args` lists the arguments.

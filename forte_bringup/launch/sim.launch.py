@@ -2,10 +2,14 @@
 grasp control.
 
     ros2 launch forte_bringup sim.launch.py object:=soda_can record:=true
+    ros2 launch forte_bringup sim.launch.py namespace:=right prefix:=right_   # a 2nd gripper
+
+Without ``force_model:=`` perception gets the simulated rig's force model (made on the first
+start, 6-13 s, and cached: ``python -m forte_bringup.sim_force_model``).
 
 ``params_overlay:=FILE`` loads a second parameter YAML after the graph's own, for the
 nodes it names (e.g. the slip setting of forte_tune_slip; forte_bringup.launch_support;
-ros2 launch only: `forte_bringup sim` does not take it yet).
+`forte_bringup sim params_overlay:=FILE` the same).
 Nodes, parameter file and arguments come from forte_bringup.graph.GRAPHS['sim'], the same
 description that `forte_bringup sim` starts on a machine without ros2 launch.
 `ros2 launch forte_bringup sim.launch.py --show-args` lists the arguments.

@@ -74,10 +74,13 @@ class Watcher(Node):
     ----------
     context : rclpy.context.Context
         The (initialised) context of the node.
+    namespace : str
+        Namespace of the graph it watches ('' = root): its topics, the nodes' services and
+        the ``grasp`` action are resolved in it.
     """
 
-    def __init__(self, context: Context) -> None:
-        super().__init__('graph_probe', context=context)
+    def __init__(self, context: Context, namespace: str = '') -> None:
+        super().__init__('graph_probe', context=context, namespace=namespace or None)
         from diagnostic_msgs.msg import DiagnosticArray
         from sensor_msgs.msg import JointState
 
@@ -88,12 +91,16 @@ class Watcher(Node):
         #: Latest ``sim/ground_truth`` (forte_msgs/SimGroundTruth) of the simulated scene.
         self.truth = None
         self.joint_positions: list[float] = []
+        #: Joint names of the latest ``joint_states``.
+        self.joint_names: list[str] = []
+        #: Latest header frame_id per counted topic (and ``sim/ground_truth``).
+        self.frame_ids: dict[str, str] = {}
         #: Latest /diagnostics status per status name (diagnostic_msgs/DiagnosticStatus).
         self.statuses: dict[str, Any] = {}
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics,
                                  qos.DIAGNOSTICS)
         self.create_subscription(TactileFrames, 'tactile/frames',
-                                 lambda _: self._count('tactile/frames'), qos.SENSOR_FRAMES)
+                                 lambda m: self._count('tactile/frames', m), qos.SENSOR_FRAMES)
         self.create_subscription(TactileState, 'tactile/state', self._on_state,
                                  qos.TACTILE_STATE)
         self.create_subscription(JointState, 'joint_states', self._on_joint_state, qos.COMMANDS)
@@ -103,23 +110,31 @@ class Watcher(Node):
                                  qos.GROUND_TRUTH)
 
     # -- counting ---------------------------------------------------------------------------
-    def _count(self, topic: str) -> None:
+    def _count(self, topic: str, message: Any = None) -> None:
         self.counts[topic] += 1
+        if message is not None:
+            self.frame_ids[topic] = message.header.frame_id
 
     def _on_state(self, message: Any) -> None:
-        self.counts['tactile/state'] += 1
+        self._count('tactile/state', message)
         self.counts['tared'] += int(message.tared and message.data_valid)
 
     def _on_joint_state(self, message: Any) -> None:
         self.counts['joint_states'] += 1
         self.joint_positions = list(message.position)
+        self.joint_names = list(message.name)
 
     def _on_grasp_state(self, message: Any) -> None:
-        self.counts['grasp/state'] += 1
+        self._count('grasp/state', message)
         self.last_grasp_state = message
 
     def _on_truth(self, message: Any) -> None:
         self.truth = message
+        self.frame_ids['sim/ground_truth'] = message.header.frame_id
+
+    def node_path(self, node: str) -> str:
+        """Fully qualified name of ``node`` in this probe's namespace."""
+        return f'{self.get_namespace().rstrip("/")}/{node}'
 
     def _on_diagnostics(self, message: Any) -> None:
         for status in message.status:
@@ -172,7 +187,8 @@ class Watcher(Node):
         """
         from lifecycle_msgs.srv import GetState
 
-        response = self.call(GetState, f'/{node}/get_state', GetState.Request(), timeout)
+        response = self.call(GetState, f'{self.node_path(node)}/get_state', GetState.Request(),
+                             timeout)
         return None if response is None else response.current_state.label
 
     def wait_for_lifecycle_state(self, node: str, label: str, timeout: float) -> str | None:
@@ -207,7 +223,7 @@ class Watcher(Node):
         from rcl_interfaces.srv import GetParameters
         from rclpy.parameter import parameter_value_to_python
 
-        response = self.call(GetParameters, f'/{node}/get_parameters',
+        response = self.call(GetParameters, f'{self.node_path(node)}/get_parameters',
                              GetParameters.Request(names=[name]), timeout)
         if response is None or not response.values:
             return None
@@ -254,16 +270,16 @@ class Watcher(Node):
 
 
 @contextmanager
-def watching() -> Iterator[Watcher]:
+def watching(namespace: str = '') -> Iterator[Watcher]:
     """A :class:`Watcher` in an rclpy context of its own, spun in a background thread.
 
     The context installs no signal handlers: the test process's SIGINT handling (pytest's,
-    a launch service's) stays as it is.
+    a launch service's) stays as it is. ``namespace``: the graph's namespace ('' = root).
     """
     context = Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     executor = SingleThreadedExecutor(context=context)
-    node = Watcher(context)
+    node = Watcher(context, namespace)
     executor.add_node(node)
     thread = threading.Thread(target=executor.spin, daemon=True)
     thread.start()

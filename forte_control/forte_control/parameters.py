@@ -26,6 +26,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import replace
 from typing import Any
 
+from forte_ros.contract import BASE_FRAME, JOINT_NAMES
 from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameter_table import range_problems as table_range_problems
 
@@ -156,9 +157,12 @@ NODE_PARAMETERS: dict[str, ParameterSpec] = parameter_table((
     _spec('arm_frame_id', str, '', "frame_id of arm/cmd_vel (the arm's base frame)",
           default='base_link'),
     _spec('gripper_frame_id', str, '', 'frame_id of grasp/state and gripper/command',
-          default='forte_base_link'),
+          default=BASE_FRAME),
     _spec('joint_names', list, '', 'joints whose mean position is the servo angle',
-          default=('forte_left_finger_joint', 'forte_right_finger_joint'), read_only=True),
+          default=JOINT_NAMES, read_only=True),
+    _spec('prefix', str, '', 'TF / joint-name prefix prepended to joint_names, '
+          "gripper_frame_id and arm_frame_id (e.g. right_ for a second gripper; '' = none)",
+          default='', read_only=True),
     _spec('use_receive_time', bool, '', 'judge data freshness by receive time instead of '
           'header stamps (for replays of recorded stamps without a /clock)', default=False,
           read_only=True),

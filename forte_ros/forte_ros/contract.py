@@ -32,6 +32,46 @@ VALUE_RANGE = (-1.0, 1.0)
 #: Quantisation step of the normalised 11-bit reading: 2048 levels over -1..1 [normalised].
 QUANTUM = (VALUE_RANGE[1] - VALUE_RANGE[0]) / 2048.0
 
-__all__ = ['CHANNEL_NAMES', 'COUNTS_PER_FULL_SCALE', 'DISTAL', 'FINGER_CHANNELS',
-           'FINGER_NAMES', 'MIDDLE', 'N_CHANNELS', 'QUANTUM', 'ROOT', 'SAMPLE_PERIOD',
-           'SAMPLE_RATE', 'VALUE_RANGE']
+#: TF frames of the gripper (docs/contracts.md, "Frames (TF) and frame_id"), base names: a
+#: graph's ``prefix`` (launch argument / node parameter) is prepended to each (:func:`prefixed`).
+BASE_FRAME = 'forte_base_link'
+FINGER_FRAMES = ('forte_left_finger', 'forte_right_finger')
+PAD_FRAMES = ('forte_left_pad', 'forte_right_pad')
+#: Frame of the calibration rig's load cell (``load_cell/wrench``, simulated rig).
+LOAD_CELL_FRAME = 'forte_load_cell'
+#: Finger joints of ``joint_states``, in JointState order (left, right): position = theta
+#: of that finger's servo [rad].
+LEFT_FINGER_JOINT = 'forte_left_finger_joint'
+RIGHT_FINGER_JOINT = 'forte_right_finger_joint'
+JOINT_NAMES = (LEFT_FINGER_JOINT, RIGHT_FINGER_JOINT)
+
+
+def prefixed(name: str, prefix: str = '') -> str:
+    """``name`` (a frame or joint base name) with the TF / joint-name ``prefix`` prepended.
+
+    Parameters
+    ----------
+    name : str
+        Base name, e.g. :data:`BASE_FRAME`; an empty name stays empty (no frame).
+    prefix : str
+        Prefix of one gripper's frames and joints, e.g. ``'right_'`` ('' = none). Written
+        as given: ``prefixed('forte_base_link', 'right_')`` is ``'right_forte_base_link'``.
+
+    Returns
+    -------
+    str
+        ``prefix + name``.
+    """
+    return prefix + name if name else name
+
+
+def joint_names(prefix: str = '') -> tuple[str, str]:
+    """The finger joints of ``joint_states`` (:data:`JOINT_NAMES`) with ``prefix``."""
+    return tuple(prefixed(name, prefix) for name in JOINT_NAMES)
+
+
+__all__ = ['BASE_FRAME', 'CHANNEL_NAMES', 'COUNTS_PER_FULL_SCALE', 'DISTAL', 'FINGER_CHANNELS',
+           'FINGER_FRAMES', 'FINGER_NAMES', 'JOINT_NAMES', 'LEFT_FINGER_JOINT',
+           'LOAD_CELL_FRAME', 'MIDDLE', 'N_CHANNELS', 'PAD_FRAMES', 'QUANTUM',
+           'RIGHT_FINGER_JOINT', 'ROOT', 'SAMPLE_PERIOD', 'SAMPLE_RATE', 'VALUE_RANGE',
+           'joint_names', 'prefixed']

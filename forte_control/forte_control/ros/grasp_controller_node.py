@@ -9,15 +9,16 @@ mean effort = servo current [A] of ``joint_names``) and, optionally, ``arm/wrenc
 in a frame whose z axis points up, so a carried weight makes ``force.z`` negative; used by
 the lift verification when ``lift_check.use_wrench`` is true), and serves
 ``grasp/reset_fault`` (forte_msgs/srv/ResetFault). Where ``control_msgs`` is installed it
-also serves ``gripper_cmd`` (control_msgs/action/GripperCommand) so MoveIt can drive the
-gripper.
+also serves ``gripper_cmd`` (control_msgs/action/GripperCommand) and
+``parallel_gripper_cmd`` (control_msgs/action/ParallelGripperCommand) so MoveIt can drive the
+gripper (:mod:`forte_control.ros.gripper_command_servers`).
 
 Execution: one thread runs every callback (``main`` spins a ``SingleThreadedExecutor``), so
 nothing is locked and no callback blocks. The action execute callbacks are coroutines: a
 Grasp goal starts the machine and awaits a future that the machine's step completes when
 the grasp reaches its outcome (a step from the control timer, a perception message, the
 cancel callback or :meth:`GraspControllerNode.prepare_shutdown`); feedback goes out from the
-``feedback_rate`` timer. A GripperCommand goal awaits a future the control timer completes
+``feedback_rate`` timer. A gripper position goal awaits a future the control timer completes
 when the joint reaches the position, stalls or times out.
 
 Idle costs nothing per input message: the controller subscribes to ``tactile/state``,
@@ -65,7 +66,8 @@ from forte_control.ros.grasp_messages import (
     servo_command_msg,
     stamp_to_seconds,
 )
-from forte_control.ros.gripper_command import GripperCommand, GripperCommandMixin
+from forte_control.ros.gripper_command import GripperCommandMixin
+from forte_control.ros.gripper_command_servers import create_gripper_action_servers
 from forte_control.ros.node_parameters import (
     CONTROLLER_FIELDS,
     declare_parameters,
@@ -93,6 +95,7 @@ from forte_msgs.msg import GraspState as GraspStateMsg
 from forte_msgs.msg import ServoCommand, TactileState
 from forte_msgs.srv import ResetFault
 from forte_ros import run_node
+from forte_ros.contract import prefixed
 from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
 from forte_ros.qos import COMMANDS, DIAGNOSTICS, GRASP_STATE, TACTILE_STATE
 
@@ -125,7 +128,10 @@ class GraspControllerNode(GripperCommandMixin, Node):
         self._slip_pending = False
         self._joint: JointInput | None = None
         self._wrench: WrenchInput | None = None
-        self._joint_names = list(self.get_parameter('joint_names').value)
+        #: TF / joint-name prefix (read-only) prepended to joint_names and the frame ids
+        self._prefix = str(self.get_parameter('prefix').value)
+        self._joint_names = [prefixed(str(name), self._prefix)
+                             for name in self.get_parameter('joint_names').value]
         self._dry_run = bool(self.get_parameter('dry_run').value)
         self._step_on_perception = bool(self.get_parameter('step_on_perception').value)
         self._use_receive_time = bool(self.get_parameter('use_receive_time').value)
@@ -134,7 +140,7 @@ class GraspControllerNode(GripperCommandMixin, Node):
         self._was_active = False
         self._stopping = False
         self._grasp: _RunningGrasp | None = None
-        self._gripper_move = None  # the GripperCommand goal in progress (GripperCommandMixin)
+        self._gripper_move = None  # the gripper position goal in progress (GripperCommandMixin)
         self._goal_pending = False   # a Grasp goal accepted, its execute not ended
         self._resetting = False      # a fault reset waiting for its inputs
         self._input_subscriptions: list = []
@@ -149,7 +155,7 @@ class GraspControllerNode(GripperCommandMixin, Node):
         self._publish_state(force=True)
         self.get_logger().info(
             f'grasp controller ready (dry_run={self._dry_run}, control_msgs '
-            f'{"available" if GripperCommand is not None else "not installed"})')
+            f'{", ".join(self._gripper_actions) or "not installed"})')
 
     def _create_interfaces(self) -> None:
         """Publishers, timers, the reset service and the action servers (the subscriptions
@@ -175,11 +181,8 @@ class GraspControllerNode(GripperCommandMixin, Node):
         self._action = ActionServer(
             self, Grasp, 'grasp', execute_callback=self._execute,
             goal_callback=self._on_goal, cancel_callback=self._on_cancel)
-        self._gripper_action = None
-        if GripperCommand is not None:
-            self._gripper_action = ActionServer(
-                self, GripperCommand, 'gripper_cmd', execute_callback=self._execute_gripper,
-                goal_callback=self._on_gripper_goal)
+        # gripper_cmd / parallel_gripper_cmd, where control_msgs has them
+        self._gripper_actions = create_gripper_action_servers(self)
 
     # -- parameters ----------------------------------------------------------------------
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
@@ -357,14 +360,18 @@ class GraspControllerNode(GripperCommandMixin, Node):
             grasp.done.set_result(outputs)  # resumes the execute coroutine
         self._publish_state()
 
+    def _frame(self, parameter: str) -> str:
+        """The frame id parameter ``parameter`` with the node's ``prefix`` prepended."""
+        return prefixed(str(self.get_parameter(parameter).value), self._prefix)
+
     def _publish_servo(self, servo: ServoOutput) -> None:
         self._servo_pub.publish(servo_command_msg(
-            servo, self._time_msg(), str(self.get_parameter('gripper_frame_id').value)))
+            servo, self._time_msg(), self._frame('gripper_frame_id')))
 
     def _publish_arm(self, velocity: float) -> None:
         msg = TwistStamped()
         msg.header.stamp = self._time_msg()
-        msg.header.frame_id = str(self.get_parameter('arm_frame_id').value)
+        msg.header.frame_id = self._frame('arm_frame_id')
         msg.twist.linear.z = 0.0 if self._dry_run else float(velocity)
         self._arm_pub.publish(msg)
 
@@ -372,7 +379,7 @@ class GraspControllerNode(GripperCommandMixin, Node):
         machine = self._machine
         msg = grasp_state_msg(machine.state, machine.fault_flags, machine.last_outcome,
                               self._last_outputs, self._time_msg(),
-                              str(self.get_parameter('gripper_frame_id').value))
+                              self._frame('gripper_frame_id'))
         key = (msg.state, msg.fault_flags, msg.last_outcome, msg.message, msg.slip_events)
         if force or key != self._last_state_published:
             self._state_pub.publish(msg)
@@ -476,7 +483,7 @@ class GraspControllerNode(GripperCommandMixin, Node):
         Called by :func:`forte_ros.run_node` after spinning stopped, while the context is
         still valid: the machine is canceled and the goal's future completed here; the
         runner's flush spin then resumes the execute coroutine, which aborts the goal with
-        outcome CANCELED and sends the result. A GripperCommand goal is ended the same way.
+        outcome CANCELED and sends the result. A gripper position goal is ended the same way.
         """
         self._stopping = True
         if self._grasp is not None:

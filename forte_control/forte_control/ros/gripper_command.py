@@ -1,14 +1,19 @@
-"""The ``gripper_cmd`` action (control_msgs/action/GripperCommand) of the grasp controller.
+"""The shared execution path of the gripper position actions of the grasp controller.
 
-A mixin of :class:`forte_control.ros.grasp_controller_node.GraspControllerNode`, so MoveIt can
-open and close the gripper through the standard action, where ``control_msgs`` is installed.
-The execute callback is a coroutine: it waits for a joint state (the controller subscribes
-to its inputs only while a goal needs them), commands the servo, and awaits a future the
-control timer completes when the joint reaches the position, stalls or times out.
+A mixin of :class:`forte_control.ros.grasp_controller_node.GraspControllerNode`. Every
+position action it serves (control_msgs ``GripperCommand`` and ``ParallelGripperCommand``,
+:mod:`forte_control.ros.gripper_command_servers`) is a :class:`GripperAction`: how its goal
+becomes a :class:`forte_control.gripper_goal.GripperGoal` and how a move becomes its result
+and feedback. Everything else is one path here: the goal is refused (with the reason, logged)
+while the controller is busy, faulted or stopping, or when the goal is invalid; the execute
+callback is a coroutine that waits for a joint state (the controller subscribes to its inputs
+only while a goal needs them), commands the servo, and awaits a future the control timer
+completes when the joint reaches the position, or at ``release_timeout``; feedback goes out
+at each check of the control timer. One gripper goal runs at a time, of either action.
 """
 from __future__ import annotations
 
-import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -16,99 +21,125 @@ from rclpy.action import GoalResponse
 from rclpy.action.server import ServerGoalHandle
 from rclpy.task import Future
 
-from forte_control.state_machine import ACTIVE_STATES, GraspState, ServoOutput
+from forte_control.gripper_goal import GripperGoal, GripperMove
+from forte_control.state_machine import ACTIVE_STATES, ControllerParams, GraspState
 
-try:  # standard gripper action for MoveIt, only where control_msgs is installed
-    from control_msgs.action import GripperCommand
-except ImportError:  # pragma: no cover - depends on the installation
-    GripperCommand = None
+__all__ = ['GripperAction', 'GripperCommandMixin']
 
-__all__ = ['GripperCommand', 'GripperCommandMixin']
+
+@dataclass(frozen=True)
+class GripperAction:
+    """One gripper position action served through the shared move.
+
+    Attributes
+    ----------
+    name : str
+        Action name (relative, remappable), e.g. ``'gripper_cmd'``.
+    action_type : type
+        The action class, e.g. ``control_msgs.action.GripperCommand``.
+    goal : callable
+        ``goal(request, joint_names, params) -> (GripperGoal | None, reason)``.
+    result : callable
+        ``result(move, joint_names, stamp) -> action_type.Result``.
+    feedback : callable
+        ``feedback(move, joint_names, stamp) -> action_type.Feedback``.
+    """
+
+    name: str
+    action_type: Any
+    goal: Callable[[Any, Sequence[str], ControllerParams], tuple[GripperGoal | None, str]]
+    result: Callable[[GripperMove, Sequence[str], Any], Any]
+    feedback: Callable[[GripperMove, Sequence[str], Any], Any]
 
 
 @dataclass
-class _GripperMove:
-    """A GripperCommand goal in progress (checked by the control timer)."""
+class _RunningMove:
+    """A gripper goal being executed: its action, handle, and the future that ends it."""
 
-    position: float            # target [rad]
-    tolerance: float           # [rad]
-    deadline: float            # node clock [s]
-    done: Future               # result: None
-    last: float = math.nan     # joint angle at the previous check [rad]
-    stalled: bool = False
+    action: GripperAction
+    handle: ServerGoalHandle
+    done: Future                      # result: None; completed by the control timer
+    move: GripperMove | None = None   # None while the goal waits for a joint state
 
 
 class GripperCommandMixin:
-    """GripperCommand goals of the grasp controller node (needs its inputs, machine and
+    """Gripper position goals of the grasp controller node (needs its inputs, machine and
     publishers: see :class:`forte_control.ros.grasp_controller_node.GraspControllerNode`)."""
 
-    _gripper_move: _GripperMove | None
+    _gripper_move: _RunningMove | None
 
-    def _on_gripper_goal(self, request: Any) -> GoalResponse:
-        if self._stopping or self._gripper_move is not None:
-            return GoalResponse.REJECT
-        if self._machine.state in ACTIVE_STATES or self._machine.state == GraspState.FAULT:
-            return GoalResponse.REJECT
-        position = float(request.command.position)
-        if not math.isfinite(position) or not self._machine.params.min_angle <= position \
-                <= math.pi:
+    def _gripper_busy(self) -> str:
+        """Why no gripper goal can start now ('' if one can)."""
+        if self._stopping:
+            return 'the controller is shutting down'
+        if self._gripper_move is not None:
+            return 'another gripper goal is running'
+        if self._goal_pending or self._machine.state in ACTIVE_STATES:
+            return 'a grasp is in progress'
+        if self._machine.state == GraspState.FAULT:
+            return 'fault latched, call grasp/reset_fault'
+        return ''
+
+    def _on_gripper_goal(self, action: GripperAction, request: Any) -> GoalResponse:
+        """Accept a goal of ``action`` unless busy or invalid (the reason is logged)."""
+        reason = self._gripper_busy() or \
+            action.goal(request, self._joint_names, self._machine.params)[1]
+        if reason:
+            self.get_logger().warning(f'{action.name} goal rejected: {reason}')
             return GoalResponse.REJECT
         return GoalResponse.ACCEPT
 
-    async def _execute_gripper(self, goal_handle: ServerGoalHandle) -> Any:
-        """Move the servo to ``command.position`` [rad]; ``max_effort`` [A] caps the current.
+    async def _execute_gripper(self, action: GripperAction,
+                               goal_handle: ServerGoalHandle) -> Any:
+        """Run one gripper goal of ``action``: wait for a joint state, move, await the end.
 
-        Ends when the joint is within ``release_tolerance`` of the position, or after
-        ``release_timeout`` (checked by the control timer; ``stalled`` when the joint no
-        longer moved between two checks).
+        The move ends when the joint is within ``release_tolerance`` of the position, or
+        after ``release_timeout`` (checked by the control timer; ``stalled`` when the joint
+        no longer moved between two checks). The goal succeeds when the move ends, with
+        ``reached_goal`` / ``stalled`` telling how; it is aborted only when the controller
+        stops (or the goal became invalid while waiting, e.g. ``min_angle`` changed).
         """
-        move = _GripperMove(math.nan, 0.0, math.inf, Future())  # holds the place while waiting
-        self._gripper_move = move
+        running = _RunningMove(action, goal_handle, Future())
+        self._gripper_move = running
         try:
             await self._wait_for_inputs(perception=False)
-            return await self._move_gripper(goal_handle)
+            return await self._move_gripper(running)
         finally:
             self._gripper_move = None
             self._rest_if_idle()
 
-    async def _move_gripper(self, goal_handle: ServerGoalHandle) -> Any:
-        if self._stopping:
-            goal_handle.abort()
-            return GripperCommand.Result()
+    async def _move_gripper(self, running: _RunningMove) -> Any:
+        action, handle = running.action, running.handle
         params = self._machine.params
-        position = float(goal_handle.request.command.position)
-        effort = float(goal_handle.request.command.max_effort)
+        goal, reason = action.goal(handle.request, self._joint_names, params)
+        if self._stopping or goal is None:
+            if goal is None:
+                self.get_logger().warning(f'{action.name} goal aborted: {reason}')
+            handle.abort()
+            return action.action_type.Result()
         if not self._dry_run:
-            self._publish_servo(ServoOutput(
-                position=position, profile_velocity=params.release_speed,
-                max_current=min(effort, params.max_current) if effort > 0.0
-                else params.max_current))
-        move = _GripperMove(position, params.release_tolerance,
-                            self._now() + params.release_timeout, Future())
-        self._gripper_move = move
-        self._check_gripper_move(move)
-        await move.done
-        result = GripperCommand.Result()
-        result.position = float(move.last) if math.isfinite(move.last) else position
-        result.reached_goal = bool(math.isfinite(move.last)
-                                   and abs(move.last - position) <= move.tolerance)
-        result.stalled = bool(move.stalled and not result.reached_goal)
+            self._publish_servo(goal.servo(params))
+        running.move = GripperMove(goal, params.release_tolerance,
+                                   self._now() + params.release_timeout)
+        self._check_gripper_move(running)
+        await running.done
+        result = action.result(running.move, self._joint_names, self._time_msg())
         if self._stopping:
-            goal_handle.abort()
+            handle.abort()
         else:
-            goal_handle.succeed()
+            handle.succeed()
         return result
 
-    def _check_gripper_move(self, move: _GripperMove) -> None:
-        """Complete the move's future once reached, or at its deadline (control timer)."""
-        if move.done.done():
+    def _check_gripper_move(self, running: _RunningMove) -> None:
+        """Complete the goal's future once the move ended, else publish feedback (control
+        timer)."""
+        move = running.move
+        if move is None or running.done.done():
             return
         joint = self._joint
-        if joint is not None:
-            move.stalled = abs(joint.theta - move.last) < 1e-4
-            move.last = joint.theta
-            if abs(joint.theta - move.position) <= move.tolerance:
-                move.done.set_result(None)
-                return
-        if self._now() >= move.deadline:
-            move.done.set_result(None)
+        if move.observe(None if joint is None else joint.theta,
+                        None if joint is None else joint.effort, self._now()):
+            running.done.set_result(None)
+        else:
+            running.handle.publish_feedback(
+                running.action.feedback(move, self._joint_names, self._time_msg()))

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import units
 from forte_driver.dynamixel.commands import GripperLimits
+from forte_ros.contract import LEFT_FINGER_JOINT, RIGHT_FINGER_JOINT
 
 
 @dataclass(frozen=True)
@@ -30,7 +31,8 @@ class FingerConfig:
     name : str
         ``'left'`` or ``'right'``.
     joint_name : str
-        JointState name of the finger joint.
+        JointState name of the finger joint (``forte_ros.contract``, with the driver's
+        ``prefix``).
     servo_id : int
         DYNAMIXEL id (0..252).
     zero_position : int
@@ -83,9 +85,9 @@ class GripperConfig:
     port: str = '/dev/ttyUSB0'
     baud_rate: int = 4_000_000
     right: FingerConfig = field(default_factory=lambda: FingerConfig(
-        'right', 'forte_right_finger_joint', 1, 2048, 1))
+        'right', RIGHT_FINGER_JOINT, 1, 2048, 1))
     left: FingerConfig = field(default_factory=lambda: FingerConfig(
-        'left', 'forte_left_finger_joint', 2, 2048, -1))
+        'left', LEFT_FINGER_JOINT, 2, 2048, -1))
     limits: GripperLimits = field(default_factory=GripperLimits)
     default_current: float = 0.5
     default_profile_velocity: float = 1.0

@@ -44,9 +44,7 @@ from forte_driver.dynamixel.gripper import (
 )
 from forte_driver.ros.gripper_driver_parameters import (
     HARDWARE_PARAMETERS,
-    LEFT_JOINT,
     PARAMETERS,
-    RIGHT_JOINT,
     gripper_config,
 )
 from forte_msgs.msg import ServoCommand
@@ -311,7 +309,7 @@ class GripperDriverNode(ForteLifecycleNode):
             return
         message = JointState()
         message.header.stamp = self._last_stamp.to_msg()
-        message.name = [LEFT_JOINT, RIGHT_JOINT]
+        message.name = [finger.joint_name for finger in self.gripper.config.fingers]
         left, right = state['left'], state['right']
         message.position = [left.theta, right.theta]
         message.velocity = [left.velocity, right.velocity]

@@ -15,10 +15,12 @@ from typing import Any
 
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel.gripper_config import GripperConfig
+from forte_ros.contract import LEFT_FINGER_JOINT, RIGHT_FINGER_JOINT, prefixed
 from forte_ros.parameter_table import ParameterSpec, parameter_table, replace_fields
 
-LEFT_JOINT = 'forte_left_finger_joint'
-RIGHT_JOINT = 'forte_right_finger_joint'
+#: Joint names without prefix (forte_ros.contract), kept here for the driver's importers.
+LEFT_JOINT = LEFT_FINGER_JOINT
+RIGHT_JOINT = RIGHT_FINGER_JOINT
 
 #: Parameters that describe the hardware; changeable only while unconfigured.
 HARDWARE_PARAMETERS = (
@@ -103,11 +105,22 @@ PARAMETERS: dict[str, ParameterSpec] = parameter_table(_with_hardware_note([
                   '(drops a held object); false keeps holding the grip', default=False),
     ParameterSpec('autostart', bool, 'configure and activate at start (no lifecycle manager '
                   'needed)', default=False, read_only=True),
+    ParameterSpec('prefix', str, 'TF / joint-name prefix prepended to the joint names of '
+                  "joint_states (e.g. right_ for a second gripper; '' = none)", default='',
+                  read_only=True),
 ]))
 
 
 def gripper_config(values: dict[str, Any]) -> GripperConfig:
     """The gripper configuration of the parameter values ``values`` (name -> value): the
     default :class:`GripperConfig` with the field of every parameter in ``values`` replaced
-    (node-only parameters are ignored)."""
-    return replace_fields(GripperConfig(), PARAMETERS, values)
+    (node-only parameters are ignored), its finger joint names with ``values['prefix']``
+    prepended."""
+    config = replace_fields(GripperConfig(), PARAMETERS, values)
+    prefix = str(values.get('prefix', ''))
+    if not prefix:
+        return config
+    return replace(config, **{side: replace(finger, joint_name=prefixed(finger.joint_name,
+                                                                         prefix))
+                              for side, finger in (('left', config.left),
+                                                   ('right', config.right))})

@@ -47,7 +47,7 @@ from forte_driver.serial.reader_health import ERROR, WARN, ReaderHealth, diagnos
 from forte_driver.serial.sensor_stream import SensorStream, StampedBatch
 from forte_msgs.msg import SensorInfo, TactileFrames
 from forte_ros import ForteLifecycleNode, diagnostics, publish_quietly, run_node
-from forte_ros.contract import CHANNEL_NAMES
+from forte_ros.contract import CHANNEL_NAMES, prefixed
 from forte_ros.qos import DIAGNOSTICS, SENSOR_INFO, frames_profile
 
 FRAMES_TOPIC = 'tactile/frames'
@@ -359,12 +359,17 @@ class SerialSensorNode(ForteLifecycleNode):
             self._info = item
             self._publish_identity()
 
+    def _frame_id(self) -> str:
+        """``frame_id`` with the node's ``prefix`` prepended."""
+        return prefixed(str(self.get_parameter('frame_id').value),
+                        str(self.get_parameter('prefix').value))
+
     def _publish_identity(self) -> None:
         """Latch the board's identity on ``tactile/sensor_info`` (reader thread)."""
         identity = protocol.sensor_identity(self._info, self._rate_acknowledged_hz)
         message = SensorInfo(**identity.to_dict())
         message.header.stamp = self.get_clock().now().to_msg()
-        message.header.frame_id = str(self.get_parameter('frame_id').value)
+        message.header.frame_id = self._frame_id()
         publish_quietly(self._sensor_info_publisher, message, self.context, self.late)
 
     def _on_ack(self, ack: Ack) -> None:
@@ -390,7 +395,7 @@ class SerialSensorNode(ForteLifecycleNode):
         publisher = self._frames_publisher
         if publisher is None or not stamped:
             return
-        frame_id = self.get_parameter('frame_id').value
+        frame_id = self._frame_id()
         for batch, stamp_ns in stamped:
             try:
                 message = TactileFrames()

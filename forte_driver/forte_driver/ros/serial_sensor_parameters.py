@@ -6,7 +6,7 @@ from __future__ import annotations
 from rcl_interfaces.msg import ParameterType, SetParametersResult
 from rclpy.node import Node
 
-from forte_ros.contract import SAMPLE_RATE
+from forte_ros.contract import BASE_FRAME, SAMPLE_RATE
 from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameters import declare_table
 
@@ -28,7 +28,10 @@ PARAMETERS: dict[str, ParameterSpec] = parameter_table([
                   'at every gap)', low=1, high=2000, integer_step=0, default=20),
     ParameterSpec('reliable', bool, 'reliable QoS on tactile/frames (for recording); default '
                   'sensor data QoS', default=False),
-    ParameterSpec('frame_id', str, 'frame_id of the published frames', default='forte_base_link'),
+    ParameterSpec('frame_id', str, 'frame_id of the published frames (prefix prepended)',
+                  default=BASE_FRAME),
+    ParameterSpec('prefix', str, "TF prefix prepended to frame_id (e.g. right_; '' = none)",
+                  default='', read_only=True),
     ParameterSpec('reconnect_period', float, 'time between attempts to reopen a lost device',
                   's', 0.05, 60.0, default=0.5),
     ParameterSpec('diagnostics_period', float, 'period of /diagnostics messages', 's', 0.1,

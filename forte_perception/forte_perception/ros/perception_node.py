@@ -63,7 +63,7 @@ from forte_perception.channel_health import channel_report
 from forte_perception.force import ForceModel
 from forte_perception.pipeline import PerceptionOutput, PerceptionPipeline, PipelineConfig
 from forte_ros import run_node
-from forte_ros.contract import CHANNEL_NAMES
+from forte_ros.contract import BASE_FRAME, CHANNEL_NAMES, prefixed
 from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
 from forte_ros.parameter_table import ParameterSpec, parameter_table, replace_fields
 from forte_ros.parameters import declare_table, parameter_update, read_table
@@ -78,8 +78,10 @@ PARAMETERS: dict[str, ParameterSpec] = parameter_table([
                   'empty: no force estimate (force_valid false)', default=''),
     ParameterSpec('sample_rate', float, 'expected input sample rate [Hz]; messages with another '
                   'sample_period are dropped', low=1.0, high=1e6, field='fs', read_only=True),
-    ParameterSpec('frame_id', str, 'frame_id of tactile/state when the input has none',
-                  default='forte_base_link'),
+    ParameterSpec('frame_id', str, 'frame_id of tactile/state when the input has none '
+                  '(prefix prepended)', default=BASE_FRAME),
+    ParameterSpec('prefix', str, "TF prefix prepended to frame_id (e.g. right_; '' = none); "
+                  "an input's own frame_id is kept as it is", default='', read_only=True),
     ParameterSpec('stale_timeout', float, 'no input for this long -> publish data_valid false',
                   's', 0.001, 60.0, default=0.1),
     ParameterSpec('diagnostics_period', float, 'period of /diagnostics', 's', 0.05, 60.0,
@@ -196,7 +198,8 @@ class PerceptionNode(Node):
         self._model: ForceModel | None = None      # the configured model, used or refused
         self._sensor: SensorIdentity | None = None  # from tactile/sensor_info
         self._identity = IdentityCheck()
-        self._frame_id = str(self.get_parameter('frame_id').value)
+        self._prefix = str(self.get_parameter('prefix').value)   # read-only
+        self._frame_id = prefixed(str(self.get_parameter('frame_id').value), self._prefix)
         self._stale_timeout = float(self.get_parameter('stale_timeout').value)
         self._expected_sequence: int | None = None
         self._gap_offset = 0  # gaps counted by pipelines before a reset
@@ -274,7 +277,8 @@ class PerceptionNode(Node):
                 self._stale_timer.cancel()
                 self._stale_timer = self.create_timer(stale, self._check_stale,
                                                       callback_group=self._group)
-            self._frame_id = changes.get('frame_id', self._frame_id)
+            if 'frame_id' in changes:
+                self._frame_id = prefixed(str(changes['frame_id']), self._prefix)
         return SetParametersResult(successful=True)
 
     # ------------------------------------------------------------------ model identity

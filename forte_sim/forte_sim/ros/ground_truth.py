@@ -9,6 +9,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import WrenchStamped
 
 from forte_msgs.msg import SimGroundTruth
+from forte_ros import contract
 from forte_sim.scene import Scene
 from forte_sim.truth import SceneTruth
 
@@ -49,12 +50,12 @@ def ground_truth_message(truth: SceneTruth, scene: Scene, object_name: str, stam
     return message
 
 
-#: frame_id of ``load_cell/wrench`` (the squeeze along +z).
-LOAD_CELL_FRAME = 'forte_load_cell'
+#: frame_id of ``load_cell/wrench`` (the squeeze along +z), without prefix.
+LOAD_CELL_FRAME = contract.LOAD_CELL_FRAME
 
 
-def load_cell_messages(truth: SceneTruth, step: int, stamp_ns: Callable[[int], int]
-                       ) -> Iterator[WrenchStamped]:
+def load_cell_messages(truth: SceneTruth, step: int, stamp_ns: Callable[[int], int],
+                       frame_id: str = LOAD_CELL_FRAME) -> Iterator[WrenchStamped]:
     """The calibration rig's load cell in a chunk: one message per sample whose index is a
     multiple of ``step``, stamped with that sample's time.
 
@@ -66,18 +67,20 @@ def load_cell_messages(truth: SceneTruth, step: int, stamp_ns: Callable[[int], i
         Samples per message (20: 100 Hz at 2 kHz).
     stamp_ns : callable
         ``stamp_ns(sample_index)``: the time of a scene sample in the graph's clock [ns].
+    frame_id : str
+        Frame of the messages (default :data:`LOAD_CELL_FRAME`; the node passes it with its
+        ``prefix``).
 
     Yields
     ------
     geometry_msgs.msg.WrenchStamped
-        ``wrench.force.z`` = the squeeze [N], every other component 0, frame
-        :data:`LOAD_CELL_FRAME`.
+        ``wrench.force.z`` = the squeeze [N], every other component 0, frame ``frame_id``.
     """
     first, force = truth.first_index, truth.load_cell_force
     for row in range(-first % step, len(force), step):
         message = WrenchStamped()
         nanoseconds = stamp_ns(first + row)
         message.header.stamp = Time(sec=nanoseconds // 10**9, nanosec=nanoseconds % 10**9)
-        message.header.frame_id = LOAD_CELL_FRAME
+        message.header.frame_id = frame_id
         message.wrench.force.z = float(force[row])
         yield message

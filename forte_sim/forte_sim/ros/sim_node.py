@@ -6,13 +6,14 @@ Thin ROS shell over :func:`forte_sim.make_scene`:
   samples, the contract's sensor-data QoS or reliable with ``reliable:=true``), stamped with
   the sample time of the first row (simulation start + sample index / 2 kHz);
 * publishes ``joint_states`` (sensor_msgs/JointState: forte_left_finger_joint,
-  forte_right_finger_joint; position [rad], velocity [rad/s], effort = servo current [A])
-  and ``sim/ground_truth`` (forte_msgs/SimGroundTruth) once per batch;
+  forte_right_finger_joint, each with ``prefix`` prepended; position [rad], velocity
+  [rad/s], effort = servo current [A]) and ``sim/ground_truth`` (forte_msgs/SimGroundTruth)
+  once per batch;
 * subscribes ``gripper/command`` (forte_msgs/ServoCommand) and ``arm/cmd_vel``
   (geometry_msgs/TwistStamped, only ``twist.linear.z`` is used: the arm lifts vertically);
   the arm stops when no velocity command arrived for ``cmd_vel_timeout`` simulated seconds;
 * in the ``calibration`` scene, publishes ``load_cell/wrench`` (geometry_msgs/WrenchStamped,
-  reliable, frame ``forte_load_cell``): the rig's load cell, one message per
+  reliable, frame ``<prefix>forte_load_cell``): the rig's load cell, one message per
   ``load_cell_decimation`` samples (default 20: 100 Hz at 2 kHz), at the sample indices
   divisible by it, each stamped with the time of the sample it reports; the squeeze (the
   mean of the two finger forces plus the cell's noise, forte_sim's ``load_cell_force``) is
@@ -20,8 +21,12 @@ Thin ROS shell over :func:`forte_sim.make_scene`:
 * publishes ``tactile/sensor_info`` (forte_msgs/SensorInfo, latched) once: the simulator's
   sensor identity (``forte_ros.sensor_identity.SIMULATED_SENSOR``);
 * optionally publishes ``/clock`` (rosgraph_msgs/Clock) so other nodes can run on the
-  simulation clock (``use_sim_time:=true``), required for ``real_time_factor`` != 1;
+  simulation clock (``use_sim_time:=true``), required for ``real_time_factor`` != 1 (a
+  namespaced graph remaps it to ``<namespace>/clock`` for all its nodes);
 * ``/diagnostics`` once per wall second.
+
+``prefix`` (TF / joint-name prefix, e.g. ``right_`` for a second gripper) is prepended to
+``frame_id``, the load cell's frame and the joint names (``forte_ros.contract.prefixed``).
 
 ``real_time_factor``: 1 = real time, > 1 faster, 0 = as fast as possible. The scene is
 stepped in whole batches; in real time the node produces, at every timer tick, the batches
@@ -49,7 +54,16 @@ from sensor_msgs.msg import JointState
 
 from forte_msgs.msg import SensorInfo, ServoCommand, SimGroundTruth, TactileFrames
 from forte_ros import ForteLifecycleNode, run_node
-from forte_ros.contract import CHANNEL_NAMES, SAMPLE_PERIOD
+from forte_ros.contract import (
+    BASE_FRAME,
+    CHANNEL_NAMES,
+    LEFT_FINGER_JOINT,
+    LOAD_CELL_FRAME,
+    RIGHT_FINGER_JOINT,
+    SAMPLE_PERIOD,
+    joint_names,
+    prefixed,
+)
 from forte_ros.diagnostics import OK, diagnostic_array, diagnostic_status
 from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameters import declare_table, parameter_update
@@ -69,8 +83,9 @@ from forte_sim.ros.ground_truth import (
     load_cell_messages,
 )
 
-LEFT_JOINT = 'forte_left_finger_joint'
-RIGHT_JOINT = 'forte_right_finger_joint'
+#: Joint names without prefix (forte_ros.contract), kept here for the node's importers.
+LEFT_JOINT = LEFT_FINGER_JOINT
+RIGHT_JOINT = RIGHT_FINGER_JOINT
 #: Parameters that define the scene, read at configure (settable while unconfigured).
 SCENE_PARAMETERS = ('scene', 'object', 'seed', 'trial')
 MAX_CATCH_UP = 0.5          # largest simulated lag made up in one timer tick [s]
@@ -102,8 +117,11 @@ PARAMETERS: dict[str, ParameterSpec] = parameter_table([
                   'sensor data QoS', default=False, read_only=True),
     ParameterSpec('batch_size', int, 'samples per TactileFrames message', low=1, high=2000,
                   default=20, read_only=True),
-    ParameterSpec('frame_id', str, 'frame_id of tactile/frames', default='forte_base_link',
-                  read_only=True),
+    ParameterSpec('frame_id', str, 'frame_id of tactile/frames, tactile/sensor_info and '
+                  'sim/ground_truth (prefix prepended)', default=BASE_FRAME, read_only=True),
+    ParameterSpec('prefix', str, 'TF / joint-name prefix prepended to frame_id, the load '
+                  "cell's frame and the joint names of joint_states (e.g. right_ for a second "
+                  "gripper; '' = none)", default='', read_only=True),
     ParameterSpec('timer_period', float, 'wall period of the production timer in real time',
                   's', 0.001, 0.1, default=0.01, read_only=True),
     ParameterSpec('cmd_vel_timeout', float, 'the arm stops when no arm/cmd_vel arrived for '
@@ -123,6 +141,10 @@ class SimNode(ForteLifecycleNode):
         super().__init__('forte_sim', **kwargs)
         declare_table(self, PARAMETERS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        prefix = str(self.get_parameter('prefix').value)   # read-only: fixed for the node
+        self._frame_id = prefixed(str(self.get_parameter('frame_id').value), prefix)
+        self._load_cell_frame = prefixed(LOAD_CELL_FRAME, prefix)
+        self._joint_names = list(joint_names(prefix))
         self._scene: Scene | None = None
         # transitions may be triggered from another thread than the executor's: they and
         # the production of a batch exclude each other, so no batch is half published
@@ -153,7 +175,7 @@ class SimNode(ForteLifecycleNode):
             SensorInfo, 'tactile/sensor_info', SENSOR_INFO)
         sensor_info = SensorInfo(**SIMULATED_SENSOR.to_dict())
         sensor_info.header.stamp = self.get_clock().now().to_msg()
-        sensor_info.header.frame_id = str(self.get_parameter('frame_id').value)
+        sensor_info.header.frame_id = self._frame_id
         self._sensor_info_publisher.publish(sensor_info)
         self._rate_window = (time.monotonic(), 0)
         self._achieved_factor = 0.0
@@ -349,7 +371,7 @@ class SimNode(ForteLifecycleNode):
                           + round((first + batch - 1) * SAMPLE_PERIOD * 1e9)).to_msg()
         message = TactileFrames()
         message.header.stamp = first_stamp.to_msg()
-        message.header.frame_id = self.get_parameter('frame_id').value
+        message.header.frame_id = self._frame_id
         message.first_sequence = first
         message.device_time_us = round(first * SAMPLE_PERIOD * 1e6)
         message.sample_period = SAMPLE_PERIOD
@@ -359,18 +381,18 @@ class SimNode(ForteLifecycleNode):
         self._frames_publisher.publish(message)
         joints = JointState()
         joints.header.stamp = last_stamp
-        joints.name = [LEFT_JOINT, RIGHT_JOINT]
+        joints.name = self._joint_names
         position = scene.joint_position
         joints.position = [position, position]
         joints.velocity = [scene.joint_velocity, scene.joint_velocity]
         joints.effort = list(scene.joint_effort)
         self._joint_publisher.publish(joints)
         self._truth_publisher.publish(ground_truth_message(
-            truth, scene, self.get_parameter('object').value, last_stamp,
-            self.get_parameter('frame_id').value))
+            truth, scene, self.get_parameter('object').value, last_stamp, self._frame_id))
         if self._load_cell_publisher is not None:
             step = int(self.get_parameter('load_cell_decimation').value)
-            for message in load_cell_messages(truth, step, self._sample_time_ns):
+            for message in load_cell_messages(truth, step, self._sample_time_ns,
+                                              self._load_cell_frame):
                 self._load_cell_publisher.publish(message)
         if self._clock_publisher is not None:
             self._publish_clock(first, scene.sample_index)
