@@ -22,6 +22,8 @@ setup(
         ('share/' + package_name + '/launch', share('launch/*.py')),
         ('share/' + package_name + '/urdf', share('urdf/*')),
         ('share/' + package_name + '/meshes', share('meshes/*')),
+        ('share/' + package_name + '/rviz', share('rviz/*.rviz')),
+        ('share/' + package_name + '/plotjuggler', share('plotjuggler/*.xml')),
     ],
     install_requires=['setuptools'],
     zip_safe=False,
@@ -42,6 +44,7 @@ setup(
             'forte_commission = forte_bringup.commission_node:main',
             'forte_calibrate_force = forte_bringup.calibrate_force:main',
             'forte_slip_lift = forte_bringup.slip_lift_node:main',
+            'forte_visualization = forte_bringup.visualization_node:main',
         ],
     },
 )

@@ -42,7 +42,8 @@ ROSDEP_KEYS: dict[str, str] = {
         'launch',
         'launch_pytest', 'launch_ros', 'lifecycle_msgs', 'rcl_interfaces', 'rclpy',
         'ros2action', 'ros2cli', 'ros2launch', 'ros2lifecycle', 'ros2topic',
-        'rosgraph_msgs', 'sensor_msgs', 'std_msgs', 'std_srvs', *PACKAGES)},
+        'rosgraph_msgs', 'sensor_msgs', 'std_msgs', 'std_srvs', 'visualization_msgs', 'xacro',
+        *PACKAGES)},
 }
 
 #: Imported module -> pip distribution, for libraries that have no rosdep key (not
