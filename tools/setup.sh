@@ -116,13 +116,22 @@ fix_wheel_cmake_paths() {
 }
 [ $use_system_ros = 1 ] || fix_wheel_cmake_paths
 # 4. bare machine with a launch kit: launch stack, ros2 CLI, two interface packages --------
+# launch_ros's wheel requires the distribution `ament-index-python`, a name the package index
+# does not have: the ROS wheels install that module as `ros-ament-index-python`. A
+# metadata-only wheel of that name requiring ros-ament-index-python (tools/alias_wheel.py)
+# satisfies pip, which otherwise reports the requirement as missing after every install.
+ament_index_alias_wheel() {
+  "$venv/bin/python" "$root/tools/alias_wheel.py" ament-index-python ros-ament-index-python \
+    "$venv/opt/wheels"
+}
 if [ $use_system_ros = 0 ] && [ -n "$launch_kit" ]; then
   kit_hash=$(cd "$launch_kit" && find . -type f | sort | xargs sha256sum | sha256sum | cut -c1-16)
   kit_hash="$kit_hash-$(hash_of "$root/requirements/launch-kit.txt" "$root/requirements/constraints.txt")"
   if ! stamp_ok launch_kit "$kit_hash" || [ ! -d "$kit_prefix" ]; then
     say "installing the launch stack and ros2 CLI from $launch_kit"
     pip_quiet --no-deps "$launch_kit"/wheels/*.whl
-    pip_quiet -c "$root/requirements/constraints.txt" -r "$root/requirements/launch-kit.txt"
+    pip_quiet -c "$root/requirements/constraints.txt" -r "$root/requirements/launch-kit.txt" \
+      "$(ament_index_alias_wheel)"
     fix_wheel_cmake_paths
     say "building composition_interfaces and control_msgs (about 4 minutes on 2 cores)"
     (
@@ -138,6 +147,12 @@ if [ $use_system_ros = 0 ] && [ -n "$launch_kit" ]; then
     ) || die "launch kit interface build failed (log: .venv/opt/kit_build.log)"
     stamp_set launch_kit "$kit_hash"
   fi
+fi
+# (a venv whose launch kit was installed before the alias existed gets it here, once)
+if [ $use_system_ros = 0 ] && [ -d "$kit_prefix" ] \
+    && ! "$venv/bin/python" -c 'import importlib.metadata as m; m.version("ament-index-python")' \
+    2>/dev/null; then
+  pip_quiet -c "$root/requirements/constraints.txt" "$(ament_index_alias_wheel)"
 fi
 
 # 5. .venv/local_setup.bash: what a ROS install's setup script would set, for this venv. colcon

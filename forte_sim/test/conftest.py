@@ -6,10 +6,20 @@ status packets can take longer than a servo's silicon. dynamixel-sdk derives eve
 timeout from its ``LATENCY_TIMER`` setting (16 ms, the U2D2's USB latency timer); raising it
 for these tests gives the peer the slack a slow USB adapter would need, without changing any
 protocol behaviour: a servo that does not answer at all still times out.
+
+Also DDS isolation for every forte_sim test, before any test module imports rclpy
+(discovery on loopback, a domain id held by this process alone; :mod:`forte_ros.isolation`):
+in a clone of the repository ``colcon test`` also finds the workspace's ``conftest.py``
+above this package, but these tests do not rely on it (with a package configuration or
+another layout pytest would not load it).
 """
 import dynamixel_sdk.port_handler
 import pytest
 from dynamixel_sdk import PortHandler
+
+from forte_ros.isolation import isolate_ros_network
+
+isolate_ros_network()
 
 #: Latency allowance for the simulated servo [ms] (packet timeout = 2 x this + 2 ms + bytes).
 SIMULATED_SERVO_LATENCY_MS = 64
