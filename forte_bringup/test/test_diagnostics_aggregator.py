@@ -31,10 +31,10 @@ MATCH_KEYS = ('startswith', 'contains', 'regex', 'expected', 'find_and_remove_pr
 AGGREGATOR_KEYS = {'path', 'pub_rate', 'base_path', 'other_as_errors', 'history_depth',
                    'critical'}
 
-#: Every status FORTE's nodes publish: under the executables' own node names
-#: (serial_sensor_node, forte_sim) and under the graphs' (serial_sensor, sim); the gripper
-#: servos with their default ids (right 1, left 2).
-STATUS_NAMES = (
+#: Every status FORTE's nodes publish in the root namespace: under the executables' own node
+#: names (serial_sensor_node, forte_sim) and under the graphs' (serial_sensor, sim); the
+#: gripper servos with their default ids (right 1, left 2).
+ROOT_STATUS_NAMES = (
     'serial_sensor_node: tactile sensor', 'serial_sensor: tactile sensor',
     'forte_sim: simulated scene', 'sim: simulated scene',
     'bag_replay: bag replay',
@@ -43,6 +43,8 @@ STATUS_NAMES = (
     'perception: pipeline', *(f'perception: channel {name}' for name in CHANNEL_NAMES),
     'grasp_controller: grasp controller',
 )
+#: The same in a graph launched with namespace:=right: the node path starts the name.
+STATUS_NAMES = (*ROOT_STATUS_NAMES, *(f'right/{name}' for name in ROOT_STATUS_NAMES))
 #: The analyzer path (below FORTE) each status belongs to.
 EXPECTED_PATHS = {
     'tactile sensor': 'Sensor', 'simulated scene': 'Sensor', 'bag replay': 'Sensor',
@@ -141,6 +143,12 @@ def test_each_status_has_exactly_one_analyzer(analyzers, name):
     assert len(found) == 1, f'{name!r} is matched by {found}'
     part = next(key for key in EXPECTED_PATHS if key in name.split(': ', 1)[1])
     assert found == [EXPECTED_PATHS[part]]
+
+
+def test_two_namespaced_graphs_publish_distinct_status_names():
+    root = set(ROOT_STATUS_NAMES)
+    right = set(STATUS_NAMES) - root
+    assert len(right) == len(root) and not root & right
 
 
 def test_other_nodes_statuses_stay_outside(analyzers):

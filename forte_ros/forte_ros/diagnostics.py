@@ -11,13 +11,25 @@ from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
-__all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'diagnostic_array', 'diagnostic_status']
+__all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'diagnostic_array', 'diagnostic_status', 'node_path']
 
 #: Levels of ``diagnostic_msgs/DiagnosticStatus`` (bytes, as the message field wants them).
 OK = DiagnosticStatus.OK
 WARN = DiagnosticStatus.WARN
 ERROR = DiagnosticStatus.ERROR
 STALE = DiagnosticStatus.STALE
+
+
+def node_path(node: Any) -> str:
+    """The node's name with its namespace, as a status name starts: ``'<namespace>/<name>'``.
+
+    ``/diagnostics`` is one topic for the whole domain, also for graphs in namespaces, so a
+    status names its node with the namespace (``right/perception``); a node in the root
+    namespace keeps its plain name (``perception``), the convention of ROS 2's
+    diagnostic_updater. ``node``: an ``rclpy.node.Node`` (anything with
+    ``get_fully_qualified_name``).
+    """
+    return node.get_fully_qualified_name().lstrip('/')
 
 
 def diagnostic_status(name: str, level: bytes, message: str,
@@ -28,7 +40,7 @@ def diagnostic_status(name: str, level: bytes, message: str,
     Parameters
     ----------
     name : str
-        Status name, conventionally ``'<node>: <part>'``.
+        Status name, conventionally ``f'{node_path(node)}: <part>'``.
     level : bytes
         :data:`OK`, :data:`WARN`, :data:`ERROR` or :data:`STALE`.
     message : str

@@ -73,6 +73,21 @@ def test_diagnostics_builder_keeps_order_and_converts_values():
     assert array.status == [status]
 
 
+def test_status_names_carry_the_namespace_only_when_there_is_one():
+    graph = SpinningGraph('forte_test_node_path')
+    try:
+        plain = graph.add(rclpy.create_node('perception', context=graph.context))
+        right = graph.add(rclpy.create_node('perception', namespace='right',
+                                            context=graph.context))
+        nested = graph.add(rclpy.create_node('perception', namespace='/cell_2/right',
+                                             context=graph.context))
+        assert diagnostics.node_path(plain) == 'perception'
+        assert diagnostics.node_path(right) == 'right/perception'
+        assert diagnostics.node_path(nested) == 'cell_2/right/perception'
+    finally:
+        graph.close()
+
+
 def test_spinning_graph_delivers_real_messages_and_closes():
     graph = SpinningGraph('forte_test_talker_listener')
     talker = graph.add(rclpy.create_node('forte_test_talker', context=graph.context))

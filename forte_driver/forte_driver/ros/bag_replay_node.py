@@ -33,7 +33,7 @@ from rclpy.serialization import deserialize_message
 
 from forte_driver.replay.mcap_source import BagError, BagMessage, BagReadReport, bag_files, read_bag
 from forte_ros import publish_quietly, run_node
-from forte_ros.diagnostics import ERROR, OK, diagnostic_array, diagnostic_status
+from forte_ros.diagnostics import ERROR, OK, diagnostic_array, diagnostic_status, node_path
 from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameters import declare_table, parameter_update
 from forte_ros.qos import DIAGNOSTICS, GRASP_STATE, SENSOR_FRAMES, SENSOR_INFO, reliable
@@ -273,7 +273,7 @@ class BagReplayNode(Node):
             'losses_of_unknown_count': report.unknown_losses,
             'done': self.done.is_set(),
         }
-        status = diagnostic_status(f'{self.get_name()}: bag replay', level, message, values,
+        status = diagnostic_status(f'{node_path(self)}: bag replay', level, message, values,
                                    hardware_id=str(self.bag_path))
         array = diagnostic_array(self.get_clock().now().to_msg(), [status])
         publish_quietly(self._diagnostics, array, self.context, self.late)

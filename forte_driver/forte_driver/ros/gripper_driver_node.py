@@ -49,7 +49,7 @@ from forte_driver.ros.gripper_driver_parameters import (
 )
 from forte_msgs.msg import ServoCommand
 from forte_ros import ForteLifecycleNode, run_node
-from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
+from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status, node_path
 from forte_ros.parameters import declare_table, read_table
 from forte_ros.qos import COMMANDS, DIAGNOSTICS
 
@@ -428,7 +428,7 @@ class GripperDriverNode(ForteLifecycleNode):
                 'current_A': f'{state.effort:.4f}',
             })
         return diagnostic_status(
-            f'{self.get_name()}: {finger.name} finger servo (id {finger.servo_id})', level,
+            f'{node_path(self)}: {finger.name} finger servo (id {finger.servo_id})', level,
             '; '.join(problems) if problems else 'ok', values,
             hardware_id=f'dynamixel xm430-w350 id {finger.servo_id} on '
                         f'{self.gripper.config.port}')
@@ -442,7 +442,7 @@ class GripperDriverNode(ForteLifecycleNode):
         values['alert_read_failures'] = str(self.gripper.alert_read_failures)
         values['last_error'] = self._last_error or 'none'
         values['release_on_shutdown'] = str(self.get_parameter('release_on_shutdown').value)
-        return diagnostic_status(f'{self.get_name()}: driver', ERROR if failing else OK,
+        return diagnostic_status(f'{node_path(self)}: driver', ERROR if failing else OK,
                                  message, values,
                                  hardware_id=f'dynamixel bus {self.gripper.config.port}')
 

@@ -522,7 +522,7 @@ class SerialSensorNode(ForteLifecycleNode):
             self._state_label, self._port is not None, rate, self._rate_hz, self._health,
             time.monotonic())
         status = diagnostics.diagnostic_status(
-            f'{self.get_name()}: tactile sensor',
+            f'{diagnostics.node_path(self)}: tactile sensor',
             {ERROR: diagnostics.ERROR, WARN: diagnostics.WARN}.get(level, diagnostics.OK),
             text, values, hardware_id=values.get('device_id', values['port']))
         message = diagnostics.diagnostic_array(Time(nanoseconds=now_ns).to_msg(), [status])

@@ -64,7 +64,7 @@ from forte_perception.force import ForceModel
 from forte_perception.pipeline import PerceptionOutput, PerceptionPipeline, PipelineConfig
 from forte_ros import run_node
 from forte_ros.contract import BASE_FRAME, CHANNEL_NAMES, prefixed
-from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
+from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status, node_path
 from forte_ros.parameter_table import ParameterSpec, parameter_table, replace_fields
 from forte_ros.parameters import declare_table, parameter_update, read_table
 from forte_ros.qos import DIAGNOSTICS, SENSOR_FRAMES, SENSOR_INFO, TACTILE_STATE
@@ -522,7 +522,7 @@ class PerceptionNode(Node):
                 'driver corrupt frames': str(self._driver_counts[1]),
             }
             values.update({k.replace('_', ' '): str(v) for k, v in self.counters.items()})
-            status = diagnostic_status('perception: pipeline', level, message, values,
+            status = diagnostic_status(f'{node_path(self)}: pipeline', level, message, values,
                                        hardware_id='forte')
             statuses = [status] + self._channel_statuses()
         self._diag_pub.publish(diagnostic_array(self.get_clock().now().to_msg(), statuses))
@@ -532,7 +532,7 @@ class PerceptionNode(Node):
         diagnostics, WARN if stuck or railed, with the counts (caller holds the lock)."""
         reports, self._health_snapshot = channel_report(
             self._pipeline.health, self._health_snapshot, self._sample_rate)
-        return [diagnostic_status(f'perception: channel {name}', bytes([level]), message,
+        return [diagnostic_status(f'{node_path(self)}: channel {name}', bytes([level]), message,
                                   values, hardware_id='forte')
                 for name, (level, message, values) in zip(CHANNEL_NAMES, reports, strict=True)]
 

@@ -64,7 +64,7 @@ from forte_ros.contract import (
     joint_names,
     prefixed,
 )
-from forte_ros.diagnostics import OK, diagnostic_array, diagnostic_status
+from forte_ros.diagnostics import OK, diagnostic_array, diagnostic_status, node_path
 from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameters import declare_table, parameter_update
 from forte_ros.qos import (
@@ -431,7 +431,7 @@ class SimNode(ForteLifecycleNode):
             'rejected_commands': self._rejected_commands,
             'clamped_commands': self._scene.clamped_commands if self._scene else 0,
         }
-        status = diagnostic_status(f'{self.get_name()}: simulated scene', OK,
+        status = diagnostic_status(f'{node_path(self)}: simulated scene', OK,
                                    'running' if self._timer is not None else 'inactive',
                                    values, hardware_id='forte_sim')
         self._diagnostics_publisher.publish(
