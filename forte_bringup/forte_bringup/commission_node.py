@@ -15,7 +15,15 @@ held on the indentor for the leak test (forte_msgs/ServoCommand on ``gripper/com
 the controller's path to the gripper driver: goal 0 rad under a current limit), then it
 opens the gripper to where it was. It writes ``report.txt`` (PASS / FAIL per check, what
 to fix), ``report.png`` and ``recording.npz`` into the output folder. The serial driver's
-latest ``/diagnostics`` status goes into the report's header.
+latest ``/diagnostics`` status (of this node's namespace) goes into the report's header.
+
+Every topic but ``/diagnostics`` is relative, so the node follows its namespace: beside a
+hardware graph started with ``namespace:=right prefix:=right_`` run it as
+``ros2 run forte_bringup forte_commission --ros-args -r __ns:=/right -p prefix:=right_``
+(``commission.launch.py namespace:=right prefix:=right_`` does both). Its read-only
+``prefix`` parameter is the TF / joint-name prefix of that gripper: the open position is the
+mean of the joints ``<prefix>forte_left_finger_joint`` and ``<prefix>forte_right_finger_joint``
+(forte_ros.contract).
 
 Exit code: 0 when every check passed, 1 when one failed, 2 when no readings arrived.
 The node waits for readings and a joint state; it never blocks a callback (a 20 Hz timer
@@ -33,11 +41,13 @@ from pathlib import Path
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
+from forte_bringup.graph import check_prefix
 from forte_bringup.procedures.commission import SQUEEZE_CURRENT, ProtocolStep, protocol
 from forte_bringup.procedures.commission_run import (
     Action,
@@ -47,9 +57,8 @@ from forte_bringup.procedures.commission_run import (
     phases_from_boundaries,
     write_outputs,
 )
-from forte_driver.ros.gripper_driver_parameters import LEFT_JOINT, RIGHT_JOINT
 from forte_msgs.msg import ServoCommand, TactileFrames
-from forte_ros.contract import FINGER_NAMES
+from forte_ros.contract import FINGER_NAMES, joint_names
 from forte_ros.qos import COMMANDS, DIAGNOSTICS, SENSOR_FRAMES
 
 __all__ = ['CommissionNode', 'main']
@@ -73,6 +82,13 @@ class CommissionNode(Node):
         Force of the bench twin's presses [N].
     squeeze_current : float
         Servo current limit of the squeeze [A].
+    **kwargs
+        Passed to :class:`rclpy.node.Node` (e.g. ``parameter_overrides`` with ``prefix``).
+
+    Raises
+    ------
+    ValueError
+        If the ``prefix`` parameter is not a valid TF / joint-name prefix.
     """
 
     def __init__(self, steps: list[ProtocolStep], headless: bool, press_force: float = 4.0,
@@ -88,6 +104,11 @@ class CommissionNode(Node):
         self.open_position = math.nan
         self.driver_status = 'no diagnostics seen'
         self.done = False
+        prefix = self.declare_parameter('prefix', '', ParameterDescriptor(
+            description='TF / joint-name prefix of the gripper (its joint_states names), '
+                        'e.g. right_', read_only=True)).value
+        #: The finger joints whose mean position is the open position (with the prefix).
+        self.joints = joint_names(check_prefix(str(prefix)))
         self.create_subscription(TactileFrames, 'tactile/frames', self._on_frames,
                                  SENSOR_FRAMES)
         self.create_subscription(JointState, 'joint_states', self._on_joints, COMMANDS)
@@ -106,11 +127,11 @@ class CommissionNode(Node):
         if math.isnan(self.open_position):
             self.open_position = mean_joint_position(list(message.name),
                                                      list(message.position),
-                                                     (LEFT_JOINT, RIGHT_JOINT))
+                                                     self.joints)
 
     def _on_diagnostics(self, message: DiagnosticArray) -> None:
         for status in message.status:
-            if 'serial' not in status.name:
+            if not self._own_serial_status(status.name):
                 continue
             level = status.level
             level = level[0] if isinstance(level, bytes) else int(level)
@@ -118,6 +139,21 @@ class CommissionNode(Node):
                                if 'frames' in item.key or 'rate' in item.key)
             self.driver_status = (f'{status.name}: {_LEVELS.get(level, level)} '
                                   f'{status.message} {values}').strip()
+
+    def _own_serial_status(self, name: str) -> bool:
+        """Whether a ``/diagnostics`` status is the serial driver's of this namespace.
+
+        ``/diagnostics`` is shared by every gripper on the domain; a status names its node
+        with the namespace (``right/serial_sensor: tactile sensor``, in the root namespace
+        ``serial_sensor: ...``), so only a node path of this node's namespace counts.
+        """
+        namespace = self.get_namespace().strip('/')
+        path = name.split(':', 1)[0]
+        if namespace:
+            if not path.startswith(namespace + '/'):
+                return False
+            path = path[len(namespace) + 1:]
+        return '/' not in path and 'serial' in path
 
     def _tick(self) -> None:
         if self.done:

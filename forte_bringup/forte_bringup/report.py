@@ -10,6 +10,11 @@ figure per grasp with five panels sharing the time axis:
 4. the finger-group moving variance with the slip threshold T and the true slip onsets
    (vertical lines) and the detector's slip flags (ticks);
 5. servo command and lift height.
+
+A bag recorded from a namespaced graph (``namespace:=right``: ``/right/tactile/state``, ...)
+is read in its namespace: ``traces_from_bag(..., namespace=None)`` detects it, or refuses a
+bag holding several namespaces' FORTE topics and asks for one
+(:mod:`forte_bringup.bag_namespace`).
 """
 from __future__ import annotations
 
@@ -20,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from forte_driver.replay.bags import read_bag
+from forte_bringup.bag_namespace import read_namespaced
 from forte_perception.evaluation.slip_metrics import format_value
 from forte_ros.contract import CHANNEL_NAMES
 
@@ -66,30 +71,48 @@ def _stamp(message) -> float:
     return message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
 
 
-def traces_from_bag(bag: str | Path, windows: Sequence[tuple[str, int, int]]) -> list[GraspTrace]:
+def traces_from_bag(bag: str | Path, windows: Sequence[tuple[str, int, int]],
+                    namespace: str | None = None) -> list[GraspTrace]:
     """One trace per ``(label, first_log_time_ns, last_log_time_ns)`` window of the bag.
 
     Messages are assigned by their receive (log) time; within a trace, times are header
     stamps (sample times) relative to the first perception stamp of the window.
+
+    Parameters
+    ----------
+    bag : str or Path
+        rosbag2 folder or ``.mcap`` file.
+    windows : sequence of (str, int, int)
+        Label, first and last receive time [ns] of each grasp.
+    namespace : str, optional
+        Namespace of the graph that recorded the bag (``right``, ``/right``; ``/`` for the
+        root); None: the only one whose topics the bag holds.
+
+    Raises
+    ------
+    ValueError
+        If the bag holds the topics of several namespaces and none is given, or none in
+        the given one (:func:`forte_bringup.bag_namespace.choose_namespace`).
     """
     from rclpy.serialization import deserialize_message
 
     from forte_msgs.msg import ServoCommand, SimGroundTruth, TactileState
 
-    classes = {'/tactile/state': TactileState, '/sim/ground_truth': SimGroundTruth,
-               '/gripper/command': ServoCommand}
+    classes = {'tactile/state': TactileState, 'sim/ground_truth': SimGroundTruth,
+               'gripper/command': ServoCommand}
     rows: list[dict[str, list]] = [{key: [] for key in classes} for _ in windows]
     starts = np.array([w[1] for w in windows])
-    for message in read_bag(bag, topics=list(classes)):
-        index = int(np.searchsorted(starts, message.log_time, side='right')) - 1
-        if index < 0 or message.log_time > windows[index][2]:
-            continue
-        rows[index][message.topic].append(deserialize_message(message.data,
-                                                              classes[message.topic]))
+    _, found = read_namespaced(bag, tuple(classes), namespace)
+    for name, messages in found.items():
+        for message in messages:
+            index = int(np.searchsorted(starts, message.log_time, side='right')) - 1
+            if index < 0 or message.log_time > windows[index][2]:
+                continue
+            rows[index][name].append(deserialize_message(message.data, classes[name]))
     traces = []
     for (label, _, _), row in zip(windows, rows):
-        states, truths, commands = row['/tactile/state'], row['/sim/ground_truth'], \
-            row['/gripper/command']
+        states, truths, commands = row['tactile/state'], row['sim/ground_truth'], \
+            row['gripper/command']
         origin = _stamp(states[0]) if states else (_stamp(truths[0]) if truths else 0.0)
         trace = GraspTrace(label)
         if states:

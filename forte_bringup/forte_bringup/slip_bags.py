@@ -20,6 +20,11 @@ each bag into the labelled recording format of
   the bag folder.
 - **mask**: with ``--evaluate-before-lift S``, flags count from S seconds before the first
   upward ``arm/cmd_vel`` command on (the lift, as the paper evaluates); all rows otherwise.
+
+A bag of a namespaced graph (``namespace:=right``: ``/right/tactile/frames``, ...) is read in
+its namespace: ``--namespace right`` (``/`` for the root), or by default the only namespace
+whose topics the bag holds; a bag holding several is refused with the list
+(:mod:`forte_bringup.bag_namespace`).
 """
 from __future__ import annotations
 
@@ -30,36 +35,39 @@ from pathlib import Path
 
 import numpy as np
 
+from forte_bringup.bag_namespace import namespace_label, read_namespaced
 from forte_perception.evaluation.recordings import LabelledRecording, save_labelled
 from forte_ros.contract import CHANNEL_NAMES
 
 __all__ = ['main', 'recording_from_bag']
 
-_TOPICS = ('/tactile/frames', '/sim/ground_truth', '/arm/cmd_vel')
+#: Topics read, relative to the namespace of the graph that recorded the bag.
+_TOPICS = ('tactile/frames', 'sim/ground_truth', 'arm/cmd_vel')
 
 
 def _stamp(message) -> float:
     return message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
 
 
-def _read(bag: Path) -> dict[str, list]:
+def _read(bag: Path, namespace: str | None) -> tuple[str, dict[str, list]]:
+    """The namespace read and the decoded messages of :data:`_TOPICS` in it."""
     from geometry_msgs.msg import TwistStamped
     from rclpy.serialization import deserialize_message
 
-    from forte_driver.replay.mcap_source import read_bag
     from forte_msgs.msg import SimGroundTruth, TactileFrames
 
     classes = dict(zip(_TOPICS, (TactileFrames, SimGroundTruth, TwistStamped), strict=True))
-    found: dict[str, list] = {topic: [] for topic in _TOPICS}
-    for message in read_bag(bag, topics=_TOPICS):
-        found[message.topic].append(deserialize_message(message.data, classes[message.topic]))
-    return found
+    namespace, raw = read_namespaced(bag, _TOPICS, namespace)
+    return namespace, {name: [deserialize_message(message.data, classes[name])
+                              for message in messages] for name, messages in raw.items()}
 
 
-def _frames(messages: list, bag: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+def _frames(messages: list, bag: Path, namespace: str = ''
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Rows (n, 6), trial ids (n,), sample times (n,) [s], sample period [s]."""
     if not messages:
-        raise ValueError(f'{bag}: no tactile/frames messages')
+        raise ValueError(f'{bag}: no tactile/frames messages in namespace '
+                         f'{namespace_label(namespace)}')
     messages = sorted(messages, key=lambda m: m.first_sequence)
     period = float(messages[0].sample_period)
     rows, trials, times, trial, expected = [], [], [], 0, None
@@ -91,8 +99,8 @@ def _truth_onsets(truths: list, times: np.ndarray) -> np.ndarray:
     return np.clip(rows, 0, times.size - 1).astype(np.int64)
 
 
-def recording_from_bag(bag: str | Path, evaluate_before_lift: float | None = None
-                       ) -> LabelledRecording:
+def recording_from_bag(bag: str | Path, evaluate_before_lift: float | None = None,
+                       namespace: str | None = None) -> LabelledRecording:
     """The labelled recording of one bag (module docstring); named ``<bag folder>.npz``.
 
     Parameters
@@ -102,20 +110,24 @@ def recording_from_bag(bag: str | Path, evaluate_before_lift: float | None = Non
     evaluate_before_lift : float, optional
         Mask: flags count from this long before the first upward arm command [s]; None:
         every row counts.
+    namespace : str, optional
+        Namespace of the graph that recorded the bag (``right``, ``/right``; ``/`` for the
+        root); None: the only one whose topics the bag holds.
 
     Raises
     ------
     ValueError
-        No tactile frames, channels not in the contract order, a changing sample period, or
-        a lift asked for and none found.
+        No tactile frames, channels not in the contract order, a changing sample period, a
+        lift asked for and none found, or the topics of several namespaces and none given
+        (:func:`forte_bringup.bag_namespace.choose_namespace`).
     """
     bag = Path(bag)
-    found = _read(bag)
-    frames, trial, times, period = _frames(found['/tactile/frames'], bag)
-    onsets = _truth_onsets(found['/sim/ground_truth'], times)
+    namespace, found = _read(bag, namespace)
+    frames, trial, times, period = _frames(found['tactile/frames'], bag, namespace)
+    onsets = _truth_onsets(found['sim/ground_truth'], times)
     mask = None
     if evaluate_before_lift is not None:
-        lifts = [_stamp(m) for m in found['/arm/cmd_vel'] if m.twist.linear.z > 0.0]
+        lifts = [_stamp(m) for m in found['arm/cmd_vel'] if m.twist.linear.z > 0.0]
         if not lifts:
             raise ValueError(f'{bag}: no upward arm/cmd_vel command (no lift to evaluate)')
         mask = times >= min(lifts) - evaluate_before_lift
@@ -131,11 +143,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument('--output', type=Path, default=Path('out/slip_recordings'))
     parser.add_argument('--evaluate-before-lift', type=float, default=None,
                         help='flags count from this long before the lift starts [s]')
+    parser.add_argument('--namespace', default=None,
+                        help='namespace of the graph that recorded the bags, e.g. right '
+                             '(/ = root; default: the only one whose FORTE topics a bag '
+                             'holds)')
     args = parser.parse_args(argv)
     args.output.mkdir(parents=True, exist_ok=True)
     for bag in args.bags:
         try:
-            rec = recording_from_bag(bag, args.evaluate_before_lift)
+            rec = recording_from_bag(bag, args.evaluate_before_lift, args.namespace)
         except (OSError, RuntimeError, ValueError) as exc:
             print(f'slip_bags: {exc}', file=sys.stderr)
             return 2

@@ -17,6 +17,17 @@ On the bench twin (its scripted operator presses; optionally with an injected fa
 the hardware graph. The report (``report.txt``, ``report.png``, ``recording.npz``) goes to
 ``output``. ``ros2 launch forte_bringup commission.launch.py --show-args`` lists the
 arguments.
+
+One gripper of several on a ROS domain (issue 27)::
+
+    ros2 launch forte_bringup commission.launch.py target:=bench_twin namespace:=right \\
+        prefix:=right_ output:=$PWD/commissioning_right
+
+``namespace:=NAME`` starts every node (the hardware graph, ``forte_commission``, the bench
+twin) in that namespace, as the main graphs do (forte_bringup.graph, launch_support);
+``prefix:=PREFIX`` is the TF / joint-name prefix of the drivers, of the joints
+``forte_commission`` reads and of the bench twin's frame. The bench twin's default links are
+then ``/tmp/forte_bench/NAME/sensor`` and ``.../gripper``, so that two twins do not share one.
 """
 import sys
 
@@ -38,7 +49,7 @@ from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
-from forte_bringup.graph import Argument
+from forte_bringup.graph import Argument, check_prefix, graph_namespace
 
 #: Every argument, typed (a bad value stops the launch with the reason).
 ARGUMENTS = (
@@ -61,9 +72,34 @@ ARGUMENTS = (
     Argument('indentor', 'flat_wide', 'bench_twin: the rig\'s indentor (forte_sim.INDENTORS)'),
     Argument('device_timeout', '120.0', 'bench_twin: longest wait for the twin\'s device '
              'links before the drivers start [s]', 'float'),
+    Argument('namespace', '', 'ROS namespace of every node, topic, service and action of the '
+             'commissioning (hardware graph, forte_commission, bench twin), e.g. right; '
+             'bench_twin links default to /tmp/forte_bench/<namespace>/; empty: the root '
+             'namespace'),
+    Argument('prefix', '', 'TF / joint-name prefix of the gripper: its drivers publish and '
+             'forte_commission reads <prefix>forte_left_finger_joint ..., e.g. right_ '
+             '(empty: none)'),
 )
 TARGETS = ('hardware', 'bench_twin')
-BENCH_LINKS = ('/tmp/forte_bench/sensor', '/tmp/forte_bench/gripper')
+BENCH_FOLDER = '/tmp/forte_bench'
+
+
+def bench_links(namespace: str) -> tuple[str, str]:
+    """Default sensor and gripper links of the bench twin in ``namespace``.
+
+    Parameters
+    ----------
+    namespace : str
+        Absolute namespace ('' = root; forte_bringup.graph.graph_namespace).
+
+    Returns
+    -------
+    tuple of str
+        ``<BENCH_FOLDER><namespace>/sensor`` and ``.../gripper``.
+    """
+    return (f'{BENCH_FOLDER}{namespace}/sensor', f'{BENCH_FOLDER}{namespace}/gripper')
+
+
 #: Waits (``python -c``) until every path of argv[2:] exists, at most argv[1] seconds;
 #: exit code 1 on a timeout.
 WAIT_FOR_LINKS = ('import os, sys, time\n'
@@ -86,6 +122,8 @@ def _values(context: LaunchContext) -> dict[str, object]:
         raise ValueError(f"target:={values['target']!r}: expected one of {TARGETS}")
     if values['headless'] not in ('auto', 'true', 'false'):
         raise ValueError(f"headless:={values['headless']!r}: expected auto, true or false")
+    values['namespace'] = graph_namespace(values['namespace'])
+    check_prefix(values['prefix'])
     return values
 
 
@@ -99,29 +137,34 @@ def _end_launch(_event: ProcessExited, context: LaunchContext) -> list:
 def _actions(context: LaunchContext) -> list:
     values = _values(context)
     twin = values['target'] == 'bench_twin'
-    sensor = values['sensor_port'] or (BENCH_LINKS[0] if twin else '')
-    gripper = values['gripper_port'] or (BENCH_LINKS[1] if twin else '')
+    namespace, prefix = values['namespace'], values['prefix']
+    links = bench_links(namespace) if twin else ('', '')
+    sensor = values['sensor_port'] or links[0]
+    gripper = values['gripper_port'] or links[1]
     headless = values['headless'] == 'true' or (values['headless'] == 'auto' and twin)
     hardware = IncludeLaunchDescription(
         PythonLaunchDescriptionSource(PathJoinSubstitution(
             [FindPackageShare('forte_bringup'), 'launch', 'hardware.launch.py'])),
-        launch_arguments={'sensor_port': sensor, 'gripper_port': gripper}.items())
+        launch_arguments={'sensor_port': sensor, 'gripper_port': gripper,
+                          'namespace': namespace, 'prefix': prefix}.items())
     arguments = ['--yes', '--output', str(values['output']),
                  '--press-force', str(values['press_force']),
                  '--squeeze-current', str(values['squeeze_current']),
                  '--squeeze-seconds', str(values['squeeze_seconds'])]
     commission = Node(package='forte_bringup', executable='forte_commission',
-                      name='forte_commission', output='screen',
+                      name='forte_commission', namespace=namespace, output='screen',
+                      parameters=[{'prefix': prefix}],
                       arguments=arguments + (['--headless'] if headless else []))
     actions = [commission, RegisterEventHandler(OnProcessExit(
         target_action=commission, on_exit=_end_launch))]
     if not twin:
         return [hardware, *actions]
     bench = Node(package='forte_sim', executable='bench_twin_node', name='bench_twin',
-                 output='screen', parameters=[{
+                 namespace=namespace, output='screen', parameters=[{
                      'scene': 'calibration', 'object': values['indentor'],
                      'seed': values['seed'], 'sensor_fault': values['sensor_fault'],
-                     'sensor_link': sensor, 'servo_link': gripper}])
+                     'sensor_link': sensor, 'servo_link': gripper,
+                     'prefix': prefix}])
     # the drivers open the twin's links once they exist (the twin's servo process takes
     # seconds to start on a loaded machine, longer than the drivers retry a configure)
     wait = ExecuteProcess(cmd=[sys.executable, '-c', WAIT_FOR_LINKS,

@@ -5,6 +5,9 @@ The launch starts the bench twin on the simulated rig (its sensor board and serv
 ptys, ``sensor_fault`` injected into the readings), the hardware graph on the twin's links
 and ``forte_commission --headless`` (the twin's scripted operator presses, the leak test
 closes the gripper through ``gripper/command``). The test reads the report it writes.
+The healthy run is made twice: in the root namespace, and as one gripper of several on a
+domain (``namespace:=right prefix:=right_``, issue 27): its commissioning starts only if
+``forte_commission`` reads the namespaced readings and the prefixed joints.
 
 Needs launch_pytest and launch_ros (the launch kit on a bare machine); skipped with that
 reason otherwise.
@@ -41,17 +44,27 @@ LINK_FINDINGS = ('dropped_frames', 'corrupt_frames', 'host_rate', 'sample_rate')
 FAULTS = {'': None, 'reversed:left_middle': ('reversed', 'left_middle')}
 
 
-@pytest.fixture(params=sorted(FAULTS))
-def fault(request) -> str:
+#: Runs: (injected fault, namespace, prefix).
+RUNS = [('', '', ''), ('reversed:left_middle', '', ''), ('', 'right', 'right_')]
+
+
+@pytest.fixture(params=RUNS, ids=['healthy', 'reversed', 'healthy_in_namespace'])
+def run(request) -> tuple[str, str, str]:
     return request.param
 
 
+@pytest.fixture
+def fault(run: tuple[str, str, str]) -> str:
+    return run[0]
+
+
 @launch_pytest.fixture
-def commissioning(fault: str, tmp_path: Path) -> launch.LaunchDescription:
+def commissioning(run: tuple[str, str, str], tmp_path: Path) -> launch.LaunchDescription:
+    fault, namespace, prefix = run
     arguments = {'target': 'bench_twin', 'sensor_fault': fault, 'seed': '3',
                  'sensor_port': str(tmp_path / 'bench' / 'sensor'),
                  'gripper_port': str(tmp_path / 'bench' / 'gripper'),
-                 'output': str(tmp_path / 'out')}
+                 'output': str(tmp_path / 'out'), 'namespace': namespace, 'prefix': prefix}
     return launch.LaunchDescription([
         IncludeLaunchDescription(PythonLaunchDescriptionSource(str(LAUNCH)),
                                  launch_arguments=arguments.items()),

@@ -19,37 +19,54 @@ def stamp(message, seconds: float) -> None:
     message.header.stamp.nanosec = int(round((seconds - int(seconds)) * 1e9))
 
 
+def write_grasps(writer: BagWriter, namespace: str = '') -> None:
+    """Two grasps of 2 s each, 1 s apart; perception at 100 Hz, truth at 50 Hz.
+
+    The topics are those of a graph in ``namespace`` ('' = root, else e.g. '/right').
+    """
+    names = {name: f'{namespace}/{name}' for name in ('tactile/state', 'sim/ground_truth',
+                                                    'gripper/command')}
+    writer.add_topic(TopicSpec(names['tactile/state'], 'forte_msgs/msg/TactileState'))
+    writer.add_topic(TopicSpec(names['sim/ground_truth'], 'forte_msgs/msg/SimGroundTruth'))
+    writer.add_topic(TopicSpec(names['gripper/command'], 'forte_msgs/msg/ServoCommand'))
+    for grasp, start in enumerate((10.0, 13.0)):
+        for k in range(200):
+            t = start + k * 0.01
+            message = TactileState(force=0.01 * k + grasp, force_valid=k >= 10,
+                                   slip=(k == 120))
+            message.filtered = [0.001 * k * (c + 1) for c in range(6)]
+            message.psd_max_db = [-60.0 + c for c in range(6)]
+            message.finger_variance = [0.5 * k / 200, 3.0 if k == 120 else 0.0]
+            stamp(message, t)
+            writer.write(names['tactile/state'], int(t * SECOND), serialize_message(message))
+        for k in range(100):
+            t = start + k * 0.02
+            truth = SimGroundTruth(finger_force=[0.02 * k, 0.021 * k],
+                                   lift_height=0.0001 * k,
+                                   slip_onsets=(1 if k >= 55 else 0) + (1 if k >= 80 else 0))
+            stamp(truth, t)
+            writer.write(names['sim/ground_truth'], int(t * SECOND) + 1,
+                         serialize_message(truth))
+        for k in range(4):
+            t = start + 0.5 * k
+            command = ServoCommand(position=0.4 - 0.1 * k)
+            stamp(command, t)
+            writer.write(names['gripper/command'], int(t * SECOND) + 2,
+                         serialize_message(command))
+
+
+def write_bag(path, *namespaces: str):
+    """A bag of :func:`write_grasps` in each of ``namespaces`` (default: the root)."""
+    with BagWriter(path) as writer:
+        for namespace in namespaces or ('',):
+            write_grasps(writer, namespace)
+    return path
+
+
 @pytest.fixture
 def bag(tmp_path):
-    """Two grasps of 2 s each, 1 s apart; perception at 100 Hz, truth at 50 Hz."""
-    path = tmp_path / 'bag'
-    with BagWriter(path) as writer:
-        writer.add_topic(TopicSpec('tactile/state', 'forte_msgs/msg/TactileState'))
-        writer.add_topic(TopicSpec('sim/ground_truth', 'forte_msgs/msg/SimGroundTruth'))
-        writer.add_topic(TopicSpec('gripper/command', 'forte_msgs/msg/ServoCommand'))
-        for grasp, start in enumerate((10.0, 13.0)):
-            for k in range(200):
-                t = start + k * 0.01
-                message = TactileState(force=0.01 * k + grasp, force_valid=k >= 10,
-                                       slip=(k == 120))
-                message.filtered = [0.001 * k * (c + 1) for c in range(6)]
-                message.psd_max_db = [-60.0 + c for c in range(6)]
-                message.finger_variance = [0.5 * k / 200, 3.0 if k == 120 else 0.0]
-                stamp(message, t)
-                writer.write('tactile/state', int(t * SECOND), serialize_message(message))
-            for k in range(100):
-                t = start + k * 0.02
-                truth = SimGroundTruth(finger_force=[0.02 * k, 0.021 * k],
-                                       lift_height=0.0001 * k,
-                                       slip_onsets=(1 if k >= 55 else 0) + (1 if k >= 80 else 0))
-                stamp(truth, t)
-                writer.write('sim/ground_truth', int(t * SECOND) + 1, serialize_message(truth))
-            for k in range(4):
-                t = start + 0.5 * k
-                command = ServoCommand(position=0.4 - 0.1 * k)
-                stamp(command, t)
-                writer.write('gripper/command', int(t * SECOND) + 2, serialize_message(command))
-    return path
+    """Two grasps of 2 s each, 1 s apart, recorded in the root namespace."""
+    return write_bag(tmp_path / 'bag')
 
 
 def test_traces_are_cut_by_window_and_decoded(bag):
@@ -70,6 +87,42 @@ def test_traces_are_cut_by_window_and_decoded(bag):
     # a window that holds nothing gives an empty trace, not an error
     (empty,) = traces_from_bag(bag, [('none', 20 * SECOND, 21 * SECOND)])
     assert empty.state_time.size == 0 and empty.slip_onset_times == []
+
+
+WINDOWS = [('a / FORTE', 10 * SECOND, 12 * SECOND), ('b / ON_OFF', 13 * SECOND, 15 * SECOND)]
+
+
+def assert_same_traces(traces: list[GraspTrace], expected: list[GraspTrace]) -> None:
+    assert len(traces) == len(expected)
+    for trace, reference in zip(traces, expected):
+        for name, value in vars(reference).items():
+            if isinstance(value, np.ndarray):
+                np.testing.assert_array_equal(getattr(trace, name), value, err_msg=name)
+            else:
+                assert getattr(trace, name) == value, name
+
+
+def test_a_namespaced_bag_gives_the_traces_of_the_root_one(bag, tmp_path):
+    """A bag of a graph with namespace:=right: the namespace is found, the traces are the
+    same as those of the same data recorded in the root namespace."""
+    root = traces_from_bag(bag, WINDOWS)
+    assert root[0].state_time.size == 200
+    right = write_bag(tmp_path / 'right', '/right')
+    assert_same_traces(traces_from_bag(right, WINDOWS), root)
+    assert_same_traces(traces_from_bag(right, WINDOWS, namespace='right'), root)
+    assert_same_traces(traces_from_bag(bag, WINDOWS, namespace='/'), root)
+    with pytest.raises(ValueError, match=r'no FORTE topics in namespace /left.*: /right'):
+        traces_from_bag(right, WINDOWS, namespace='left')
+
+
+def test_a_bag_of_several_namespaces_needs_one_chosen(bag, tmp_path):
+    both = write_bag(tmp_path / 'both', '', '/robot/right')
+    with pytest.raises(ValueError, match=r'several namespaces \(/, /robot/right\); choose one '
+                                         r'with --namespace'):
+        traces_from_bag(both, WINDOWS)
+    root = traces_from_bag(bag, WINDOWS)
+    assert_same_traces(traces_from_bag(both, WINDOWS, namespace='/robot/right'), root)
+    assert_same_traces(traces_from_bag(both, WINDOWS, namespace=''), root)
 
 
 def test_plot_grasp_writes_a_png(bag, tmp_path):

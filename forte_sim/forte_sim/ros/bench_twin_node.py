@@ -45,7 +45,7 @@ from std_msgs.msg import String
 
 from forte_msgs.msg import SimGroundTruth
 from forte_ros import run_node
-from forte_ros.contract import FINGER_NAMES
+from forte_ros.contract import BASE_FRAME, FINGER_NAMES, LOAD_CELL_FRAME, prefixed
 from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameters import declare_table, read_table
 from forte_ros.qos import COMMANDS, GROUND_TRUTH, LOAD_CELL
@@ -77,8 +77,10 @@ PARAMETERS = parameter_table([
                   'this long', 's', 0.01, 60.0, default=0.5),
     ParameterSpec('truth_rate', float, 'sim/ground_truth messages per second', 'Hz', 1.0,
                   500.0, default=100.0, read_only=True),
-    ParameterSpec('frame_id', str, 'frame_id of sim/ground_truth', default='forte_base_link',
-                  read_only=True),
+    ParameterSpec('frame_id', str, 'frame_id of sim/ground_truth (prefix prepended)',
+                  default=BASE_FRAME, read_only=True),
+    ParameterSpec('prefix', str, "TF prefix of frame_id and of load_cell/wrench's frame (e.g. "
+                  "right_; '' = none)", default='', read_only=True),
     ParameterSpec('load_cell_decimation', int, 'samples per load_cell/wrench message in the '
                   'calibration scene (each stamped with its sample time)', low=1, high=2000,
                   default=20, read_only=True),
@@ -188,12 +190,14 @@ class BenchTwinNode(Node):
             chunks, self._load_cell_chunks = self._load_cell_chunks, []
         step = int(self.values['load_cell_decimation'])
         for chunk in chunks:
-            for message in load_cell_messages(chunk, step, self.twin.sample_time_ns):
+            for message in load_cell_messages(chunk, step, self.twin.sample_time_ns,
+                                              prefixed(LOAD_CELL_FRAME, self.values['prefix'])):
                 self._load_cell_publisher.publish(message)
         if truth is not None:
             self._truth_publisher.publish(ground_truth_message(
                 truth, self.twin.scene, self.values['object'],
-                self.get_clock().now().to_msg(), self.values['frame_id']))
+                self.get_clock().now().to_msg(),
+                prefixed(self.values['frame_id'], self.values['prefix'])))
 
     def prepare_shutdown(self) -> None:
         """Stop the scene and both devices, remove the servo symlink (the node runner calls

@@ -72,3 +72,27 @@ def test_shutdown_removes_the_servo_link(graph):
     node.prepare_shutdown()
     assert not (folder / 'gripper').exists()
     assert not (folder / 'sensor').exists()
+
+
+def test_the_prefix_names_the_ground_truth_and_load_cell_frames(tmp_path):
+    from geometry_msgs.msg import WrenchStamped
+
+    from forte_ros.qos import LOAD_CELL
+
+    ros = SpinningGraph('bench_twin_prefix_peer')
+    overrides = [Parameter('sensor_link', value=str(tmp_path / 'sensor')),
+                 Parameter('servo_link', value=str(tmp_path / 'gripper')),
+                 Parameter('scene', value='calibration'), Parameter('object', value='flat_wide'),
+                 Parameter('prefix', value='right_')]
+    node = ros.add(BenchTwinNode(context=ros.context, parameter_overrides=overrides))
+    truth = ros.collect(SimGroundTruth, 'sim/ground_truth', reliable(1000))
+    load = ros.collect(WrenchStamped, 'load_cell/wrench', LOAD_CELL)
+    ros.start()
+    try:
+        assert wait_until(lambda: truth and load, 20.0)
+        assert {message.header.frame_id for message in truth} == {'right_forte_base_link'}
+        assert {message.header.frame_id for message in load} == {'right_forte_load_cell'}
+    finally:
+        ros.stop()
+        node.prepare_shutdown()
+        ros.close()
