@@ -18,8 +18,10 @@ Usage::
     forte_bringup sim namespace:=right prefix:=right_   # a second gripper on the domain
 
 Arguments are the launch files' (``name:=value``; ``forte_bringup <graph> --help`` lists
-them). ROS network: unless ``--domain-id`` is given or ``ROS_DOMAIN_ID`` is set, a free
-domain id is reserved; discovery is always confined to this machine
+them), ``visualization:=false`` and ``robot_state_publisher:=false`` among them; where
+robot_state_publisher is not installed one line says so and the graph runs without it.
+ROS network: unless ``--domain-id`` is given or ``ROS_DOMAIN_ID`` is set, a free domain id
+is reserved; discovery is always confined to this machine
 (:func:`forte_ros.isolation.isolate_ros_network`). The id is printed so that other
 terminals can join (``export ROS_DOMAIN_ID=<id> ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``).
 """
@@ -55,6 +57,7 @@ from forte_bringup.graph import (
     params_file,
     recorder_topics,
 )
+from forte_bringup.graph_nodes import started_nodes
 from forte_ros.isolation import isolate_ros_network
 
 #: lifecycle_msgs/msg/Transition ids used here.
@@ -140,7 +143,8 @@ def node_command(
     for source, target in remappings:
         command += ['-r', f'{source}:={target}']
     for parameter, value in parameters.items():  # untyped without a graph: the text as given
-        command += ['-p', f'{parameter}:={value if graph is None else parameter_text(value)}']
+        text = value if graph is None and '\n' not in str(value) else parameter_text(value)
+        command += ['-p', f'{parameter}:={text}']  # a URDF (several lines) always quoted
     for parameter, value in spec.fixed_parameters:
         command += ['-p', f'{parameter}:={parameter_text(value)}']
     return command
@@ -255,6 +259,9 @@ class Bringup:
             raise BringupError(str(error)) from error
         self.overlay = Path(overlay) if overlay else None
         try:
+            #: the nodes it starts, and the lines to print about the others (a missing
+            #: robot_state_publisher): graph_nodes.started_nodes
+            self.nodes, self.notes = started_nodes(self.graph, self.arguments)
             #: absolute namespace of every node ('' = root)
             self.namespace = graph_namespace(self.arguments.get('namespace', ''))
             # under a namespace the nodes read copies keyed by their namespaced names
@@ -289,7 +296,7 @@ class Bringup:
             from forte_bringup.sim_force_model import force_model_path
 
             arguments['force_model'] = str(force_model_path())  # made by start()
-        for spec in self.graph.nodes:
+        for spec in self.nodes:
             overlay = self._node_overlay if {spec.name, '/**'} & self.overlay_nodes else None
             command = node_command(spec, self._node_params, arguments, graph=self.graph,
                                    overlay=overlay)
@@ -327,12 +334,14 @@ class Bringup:
         """
         self.log_dir.mkdir(parents=True, exist_ok=True)
         self._prepare_force_model()
+        for note in self.notes:  # one line each, and the graph goes on without that node
+            print(f'[forte_bringup] {note}', file=self.echo or sys.stderr, flush=True)
         try:
             for name, command in self.commands().items():
                 self.children.append(_Child(name, command, self.log_dir, self.echo))
             self._start_manager()
             self._wait_for_nodes(timeout)
-            for spec in self.graph.nodes:
+            for spec in self.nodes:
                 if spec.lifecycle:
                     self.activate(spec.name, timeout)
         except BaseException:
@@ -381,7 +390,7 @@ class Bringup:
                 )
 
     def _wait_for_nodes(self, timeout: float) -> None:
-        wanted = {(spec.name, self.namespace or '/') for spec in self.graph.nodes}
+        wanted = {(spec.name, self.namespace or '/') for spec in self.nodes}
         deadline = time.monotonic() + timeout
         while True:
             self.check_children()
@@ -508,7 +517,7 @@ class Bringup:
     def stop(self, timeout: float = 10.0) -> dict[str, int]:
         """Deactivate lifecycle nodes, then stop every child; returns exit codes by name."""
         if self._manager is not None:
-            for spec in self.graph.nodes:
+            for spec in self.nodes:
                 child = next((c for c in self.children if c.name == spec.name), None)
                 if spec.lifecycle and child is not None and child.process.poll() is None:
                     try:  # only an active node can be deactivated (rclpy raises otherwise)
@@ -582,7 +591,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         bringup.start()
         print(f'[forte_bringup] {graph.name} graph up: '
-              f'{", ".join(s.name for s in graph.nodes)}; Ctrl-C to stop', flush=True)
+              f'{", ".join(s.name for s in bringup.nodes)}; Ctrl-C to stop', flush=True)
         while not stop.wait(0.2):
             bringup.check_children()
     except BringupError as error:

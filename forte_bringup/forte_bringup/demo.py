@@ -306,7 +306,10 @@ def run(objects: list[str], controllers: list[str], output: Path, settle: float,
     windows: list[tuple[str, int, int]] = []
     say('starting sim_node, perception_node, grasp_controller_node at real-time factor '
         f'{real_time_factor:g}')
-    bringup = Bringup('sim', {'object': objects[0], 'force_model': str(model)},
+    # no live views: the demo draws its figures from the bag (the marker node would take
+    # about a tenth of a core from the graph it measures)
+    bringup = Bringup('sim', {'object': objects[0], 'force_model': str(model),
+                              'visualization': 'false'},
                       extra_parameters={'sim': {'real_time_factor': real_time_factor}},
                       log_dir=output / 'logs', echo=None)
     try:

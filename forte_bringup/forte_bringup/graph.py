@@ -12,9 +12,12 @@ service and action of the graph (a namespaced sim graph also moves its clock to
 ``<namespace>/clock``), the prefix is prepended to every frame id and joint name its nodes
 publish or consume (their ``prefix`` parameter). Only ``/rosout``, ``/parameter_events``,
 ``/diagnostics`` (and ``/tf``, ``/tf_static`` where a graph publishes TF) stay global.
+Every graph ends with :data:`VISUALIZATION` and :data:`ROBOT_STATE_PUBLISHER`, each with an
+on/off argument; which nodes start is :func:`forte_bringup.graph_nodes.started_nodes`.
 """
 from __future__ import annotations
 
+import json
 import os
 import re
 import tempfile
@@ -45,6 +48,11 @@ class NodeSpec:
         ``(parameter, argument name)``: set the parameter from that argument when given.
     fixed_parameters : tuple of (str, object)
         Parameters this graph always sets on the node (after the YAML), e.g. ``dry_run``.
+    enabled_by : str
+        A ``bool`` argument that turns the node on or off ('' = always started).
+    robot_model : bool
+        robot_state_publisher: started only where installed (:mod:`forte_bringup.graph_nodes`),
+        ``robot_description`` the gripper's URDF for ``prefix`` (:func:`argument_settings`).
 
     Every node whose messages carry frame ids or joint names has a ``prefix`` parameter,
     set from the graph's ``prefix`` argument through ``argument_parameters``.
@@ -58,6 +66,8 @@ class NodeSpec:
     argument_remaps: tuple[tuple[str, str], ...] = ()
     argument_parameters: tuple[tuple[str, str], ...] = ()
     fixed_parameters: tuple[tuple[str, object], ...] = ()
+    enabled_by: str = ''
+    robot_model: bool = False
 
 
 @dataclass(frozen=True)
@@ -94,7 +104,11 @@ class Argument:
 
 
 def parameter_text(value: object) -> str:
-    """A typed value as the text of ``--ros-args -p name:=<text>`` (YAML, type preserved)."""
+    """A typed value as the text of ``--ros-args -p name:=<text>`` (YAML, type preserved).
+
+    A string YAML would read as another type is single-quoted; a string of several lines
+    (a URDF) is a double-quoted YAML scalar with escapes, so that it arrives unchanged.
+    """
     if isinstance(value, bool):
         return 'true' if value else 'false'
     if isinstance(value, float):
@@ -102,8 +116,13 @@ def parameter_text(value: object) -> str:
     if isinstance(value, int):
         return str(value)
     text = str(value)
-    return text if isinstance(yaml.safe_load(text or "''"), str) else "'" + text.replace(
-        "'", "''") + "'"
+    if '\n' in text or '\r' in text:
+        return json.dumps(text)  # a JSON string is a YAML double-quoted scalar
+    try:
+        plain = isinstance(yaml.safe_load(text or "''"), str)
+    except yaml.YAMLError:
+        plain = False
+    return text if plain else "'" + text.replace("'", "''") + "'"
 
 
 @dataclass(frozen=True)
@@ -169,7 +188,9 @@ def argument_settings(spec: NodeSpec, arguments: Mapping[str, str],
         graph with a private clock (:func:`clock_remappings`).
     parameters : dict
         Parameter name -> value of every argument parameter given, in the order of
-        ``spec.argument_parameters`` (the fixed parameters are not included).
+        ``spec.argument_parameters`` (the fixed parameters are not included); for the
+        robot-model node also ``robot_description``, the gripper's URDF for ``prefix``
+        (:func:`forte_bringup.robot_model.expand_gripper`).
 
     Raises
     ------
@@ -195,6 +216,10 @@ def argument_settings(spec: NodeSpec, arguments: Mapping[str, str],
             except ValueError as error:
                 raise ValueError(f'argument {argument}:={value}: {error}') from error
         parameters[parameter] = value
+    if spec.robot_model:
+        from forte_bringup.robot_model import robot_state_publisher_parameters
+
+        parameters.update(robot_state_publisher_parameters(arguments.get('prefix', '')))
     return remappings, parameters
 
 
@@ -210,6 +235,13 @@ CONTROL = NodeSpec(
     argument_remaps=(('arm/cmd_vel', 'arm_cmd_vel_topic'),),
     argument_parameters=(PREFIX,),
 )
+
+#: forte_visualization and robot_state_publisher (the gripper's URDF), in every graph.
+VISUALIZATION = NodeSpec('forte_bringup', 'forte_visualization', 'visualization',
+                         argument_parameters=(PREFIX,), enabled_by='visualization')
+ROBOT_STATE_PUBLISHER = NodeSpec('robot_state_publisher', 'robot_state_publisher',
+                                 'robot_state_publisher', enabled_by='robot_state_publisher',
+                                 robot_model=True)
 
 #: Lifecycle transitions a node may refuse before its graph gives up on it, and the pause
 #: before asking again [s] (a device that just enumerated, a servo bus that missed one status
@@ -237,6 +269,14 @@ COMMON_ARGUMENTS = (
     Argument('prefix', '', 'TF / joint-name prefix prepended to every frame id and joint '
              'name the nodes publish, e.g. right_ (right_forte_base_link, '
              'right_forte_left_finger_joint); empty: none'),
+    Argument('visualization', 'true', 'start forte_visualization (per-pad WrenchStamped on '
+             'visualization/<side>_pad_wrench, MarkerArray on visualization/markers for RViz)',
+             kind='bool'),
+    Argument('robot_state_publisher', 'true', "start robot_state_publisher with the "
+             "gripper's URDF for prefix (TF of body, fingers and pads; robot_description) "
+             'where it is installed (else one line says so and the graph runs without it); '
+             "false when the robot's own robot_state_publisher already has the gripper",
+             kind='bool'),
 )
 
 GRAPHS: dict[str, GraphSpec] = {
@@ -252,6 +292,8 @@ GRAPHS: dict[str, GraphSpec] = {
                      argument_parameters=(('port', 'gripper_port'), PREFIX)),
             PERCEPTION,
             CONTROL,
+            VISUALIZATION,
+            ROBOT_STATE_PUBLISHER,
         ),
         (
             *COMMON_ARGUMENTS,
@@ -272,6 +314,8 @@ GRAPHS: dict[str, GraphSpec] = {
                                           ('real_time_factor', 'real_time_factor'), PREFIX)),
             PERCEPTION,
             CONTROL,
+            VISUALIZATION,
+            ROBOT_STATE_PUBLISHER,
         ),
         (
             *COMMON_ARGUMENTS,
@@ -299,6 +343,8 @@ GRAPHS: dict[str, GraphSpec] = {
             NodeSpec('forte_control', 'grasp_controller_node', 'grasp_controller',
                      argument_remaps=(('arm/cmd_vel', 'arm_cmd_vel_topic'),),
                      argument_parameters=(PREFIX,), fixed_parameters=(('dry_run', True),)),
+            VISUALIZATION,
+            ROBOT_STATE_PUBLISHER,
         ),
         (
             *COMMON_ARGUMENTS,

@@ -24,6 +24,12 @@ with copies of the parameter files keyed by the namespaced node names
 ``NAME/clock`` in the sim graph; ``prefix:=PREFIX`` sets the ``prefix`` parameter of the
 nodes that publish frame ids or joint names.
 
+``visualization:=false`` leaves out forte_visualization; robot_state_publisher (the
+gripper's URDF for ``prefix``) starts unless ``robot_state_publisher:=false``, and only where
+it is installed: elsewhere one line
+(:data:`forte_bringup.robot_model.ROBOT_STATE_PUBLISHER_MISSING`) is logged and the graph
+comes up without it (:func:`forte_bringup.graph_nodes.started_nodes`).
+
 The sim graph without a force model (no ``force_model:=``, no ``model_path`` in the YAML)
 gives perception the simulated rig's model, made on first use and cached
 (:func:`forte_bringup.sim_force_model.default_force_model_file`, 6-13 s once); the
@@ -65,6 +71,7 @@ from forte_bringup.graph import (
     overlay_nodes,
     recorder_topics,
 )
+from forte_bringup.graph_nodes import started_nodes
 
 
 def node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
@@ -236,7 +243,9 @@ def graph_launch_description(graph_name: str) -> LaunchDescription:
     -------
     LaunchDescription
         Every argument of the graph declared with its description and default, then the
-        graph's nodes (and the recorder if ``record:=true``).
+        graph's nodes that the arguments and the install select
+        (:func:`forte_bringup.graph_nodes.started_nodes`; a log line for a missing
+        robot_state_publisher), and the recorder if ``record:=true``.
     """
     graph = GRAPHS[graph_name]
     declared = []
@@ -258,7 +267,9 @@ def graph_launch_description(graph_name: str) -> LaunchDescription:
         namespace = graph_namespace(arguments['namespace'])
         params_file = str(namespaced_parameter_file(params_file, namespace))
         overlay = str(namespaced_parameter_file(overlay, namespace)) if overlay else ''
-        for spec in graph.nodes:
+        nodes, notes = started_nodes(graph, arguments)
+        actions += [LogInfo(msg=note) for note in notes]  # robot_state_publisher missing
+        for spec in nodes:
             actions += node_actions(spec, *argument_settings(spec, arguments, graph),
                                      params_file,
                                      overlay if {spec.name, '/**'} & named else '',

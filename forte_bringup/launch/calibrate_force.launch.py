@@ -18,7 +18,8 @@ is done (``session_dir``, resumable); ``forte_train_force <session_dir>/calibrat
 then trains the model. ``--show-args`` lists every argument.
 
 ``namespace:=NAME`` starts every node of the session in that namespace (the procedure finds
-the sim node and the topics by relative names); ``prefix:=PREFIX`` is the TF / joint-name
+the sim node and the topics by relative names; its prompts are then answered on
+``/NAME/force_calibration/continue``); ``prefix:=PREFIX`` is the TF / joint-name
 prefix of the sim node or the drivers (forte_bringup.graph; e.g. to calibrate one gripper of
 a robot with two).
 

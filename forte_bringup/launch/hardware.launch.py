@@ -4,6 +4,11 @@ nodes, configured and activated on start), perception, grasp control.
     ros2 launch forte_bringup hardware.launch.py sensor_port:=/dev/forte_sensor \\
         gripper_port:=/dev/forte_gripper arm_cmd_vel_topic:=/servo_node/delta_twist_cmds
 
+Also started: forte_visualization (pad wrenches, markers; ``visualization:=false``: not)
+and robot_state_publisher with the gripper's URDF for ``prefix`` where it is installed
+(``robot_state_publisher:=false`` when the robot already publishes the gripper; not
+installed: one line, and the graph without it).
+
 ``params_overlay:=FILE`` loads a second parameter YAML after the graph's own, for the
 nodes it names (e.g. the slip setting of forte_tune_slip; forte_bringup.launch_support;
 `forte_bringup hardware params_overlay:=FILE` the same).

@@ -3,6 +3,11 @@ with dry_run:=true so that no servo or arm command moves anything.
 
     ros2 launch forte_bringup replay.launch.py bag:=out/bags/run1 rate:=1.0
 
+Also started: forte_visualization (pad wrenches, markers; ``visualization:=false``: not)
+and robot_state_publisher with the gripper's URDF for ``prefix`` where it is installed
+(``robot_state_publisher:=false`` when the robot already publishes the gripper; not
+installed: one line, and the graph without it).
+
 ``params_overlay:=FILE`` loads a second parameter YAML after the graph's own, for the
 nodes it names (e.g. the slip setting of forte_tune_slip; forte_bringup.launch_support;
 `forte_bringup replay params_overlay:=FILE` the same).

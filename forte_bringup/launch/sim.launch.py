@@ -7,6 +7,11 @@ grasp control.
 Without ``force_model:=`` perception gets the simulated rig's force model (made on the first
 start, 6-13 s, and cached: ``python -m forte_bringup.sim_force_model``).
 
+Also started: forte_visualization (pad wrenches, markers; ``visualization:=false``: not)
+and robot_state_publisher with the gripper's URDF for ``prefix`` where it is installed
+(``robot_state_publisher:=false`` when the robot already publishes the gripper; not
+installed: one line, and the graph without it).
+
 ``params_overlay:=FILE`` loads a second parameter YAML after the graph's own, for the
 nodes it names (e.g. the slip setting of forte_tune_slip; forte_bringup.launch_support;
 `forte_bringup sim params_overlay:=FILE` the same).

@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 import pytest
+import yaml
 from graph_probe import (
     emulated_devices,
     force_model_file,
@@ -24,6 +25,7 @@ from graph_probe import (
     watching,
     write_quiet_bag,
 )
+from robot_model_probe import fake_robot_state_publisher, without_robot_state_publisher
 
 from forte_bringup.bringup import (
     Bringup,
@@ -33,6 +35,16 @@ from forte_bringup.bringup import (
     parse_graph_arguments,
 )
 from forte_bringup.graph import GRAPHS, parameter_text, params_file
+from forte_bringup.robot_model import (
+    ROBOT_STATE_PUBLISHER_MISSING,
+    expand_gripper,
+    robot_state_publisher_available,
+)
+
+
+def option_values(command: list[str], option: str) -> list[str]:
+    """Every value that follows ``option`` in a command line."""
+    return [command[i + 1] for i, item in enumerate(command[:-1]) if item == option]
 
 
 # --- command lines (pure) ------------------------------------------------------------------
@@ -110,12 +122,84 @@ def test_arguments_are_checked():
 def test_record_argument_adds_the_recorder(tmp_path):
     bringup = Bringup('sim', {'record': 'true', 'bag_output': str(tmp_path / 'b')}, echo=None)
     commands = bringup.commands()
-    assert list(commands) == ['sim', 'perception', 'grasp_controller', 'recorder']
+    assert list(commands) == ['sim', 'perception', 'grasp_controller', 'visualization'] + (
+        ['robot_state_publisher'] if robot_state_publisher_available() else []) + ['recorder']
     # the installed console script, found like the nodes (as the launch files' Node does)
     assert commands['recorder'] == [find_executable('forte_bringup', 'forte_record'),
                                     '-o', str(tmp_path / 'b'),
                                     '--ros-args', '-r', '__node:=forte_recorder']
     assert 'recorder' not in Bringup('sim', echo=None).commands()
+
+
+@pytest.mark.parametrize('graph', sorted(GRAPHS))
+def test_visualization_runs_in_every_graph_unless_turned_off(graph: str, tmp_path):
+    extra = {'bag': str(tmp_path / 'bag')} if graph == 'replay' else {}
+    command = Bringup(graph, {'namespace': 'right', 'prefix': 'right_', **extra},
+                      echo=None).commands()['visualization']
+    assert command[0] == find_executable('forte_bringup', 'forte_visualization')
+    assert option_values(command, '-r')[:2] == ['__node:=visualization', '__ns:=/right']
+    assert option_values(command, '-p') == ['prefix:=right_']
+    assert ('/clock:=/right/clock' in option_values(command, '-r')) == (graph == 'sim')
+    (parameters,) = option_values(command, '--params-file')
+    assert '/right/visualization' in yaml.safe_load(Path(parameters).read_text())
+    off = Bringup(graph, {'visualization': 'false', **extra}, echo=None)
+    assert 'visualization' not in off.commands()
+    assert 'visualization' not in [spec.name for spec in off.nodes]
+    with pytest.raises(BringupError, match='visualization:=maybe'):
+        Bringup(graph, {'visualization': 'maybe', **extra}, echo=None)
+
+
+@pytest.mark.parametrize('graph', sorted(GRAPHS))
+def test_robot_state_publisher_where_installed(graph: str, tmp_path, monkeypatch):
+    """Installed (an ament prefix that registers it): started in the graph's namespace with
+    the gripper's URDF for the prefix, the graph's YAML and the sim graph's clock; not
+    installed: left out with the one line; ``robot_state_publisher:=false``: left out, no
+    line."""
+    extra = {'bag': str(tmp_path / 'bag')} if graph == 'replay' else {}
+    arguments = {'namespace': 'right', 'prefix': 'right_', **extra}
+    executable = fake_robot_state_publisher(tmp_path / 'ros')
+    monkeypatch.setenv('AMENT_PREFIX_PATH',
+                       f'{tmp_path / "ros"}{os.pathsep}{without_robot_state_publisher()}')
+    bringup = Bringup(graph, arguments, echo=None)
+    assert bringup.notes == []
+    command = bringup.commands()['robot_state_publisher']
+    assert command[0] == str(executable)
+    remaps = option_values(command, '-r')
+    assert remaps[:2] == ['__node:=robot_state_publisher', '__ns:=/right']
+    assert remaps[2:] == (['/clock:=/right/clock'] if graph == 'sim' else [])
+    assert option_values(command, '-p') == [
+        'robot_description:=' + parameter_text(expand_gripper('right_'))]
+    (parameters,) = option_values(command, '--params-file')
+    block = yaml.safe_load(Path(parameters).read_text())['/right/robot_state_publisher']
+    assert block['ros__parameters'].get('use_sim_time', False) == (graph == 'sim')
+    off = Bringup(graph, {**arguments, 'robot_state_publisher': 'false'}, echo=None)
+    assert 'robot_state_publisher' not in off.commands() and off.notes == []
+
+    monkeypatch.setenv('AMENT_PREFIX_PATH', without_robot_state_publisher())
+    absent = Bringup(graph, arguments, echo=None)
+    assert absent.notes == [ROBOT_STATE_PUBLISHER_MISSING]
+    assert 'robot_state_publisher' not in absent.commands()
+    assert 'visualization' in absent.commands()
+
+
+def test_a_urdf_reaches_the_node_unchanged_through_the_command_line():
+    """``-p robot_description:=<URDF>`` (several lines, quotes, ``<?xml``) as rcl parses it:
+    a node declaring its overrides reads back exactly the expanded URDF."""
+    import rclpy
+    from rclpy.context import Context
+
+    urdf = expand_gripper('right_')
+    assert '\n' in urdf and '"' in urdf
+    context = Context()
+    rclpy.init(args=['--ros-args', '-p', f'robot_description:={parameter_text(urdf)}'],
+               context=context)
+    try:
+        node = rclpy.create_node('urdf_reader', context=context,
+                                 automatically_declare_parameters_from_overrides=True)
+        assert node.get_parameter('robot_description').value == urdf
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
 
 
 def test_executables_resolve_like_ros2_run():
@@ -150,7 +234,8 @@ def test_hardware_graph_on_emulated_devices(watcher, tmp_path):
         finally:
             codes = bringup.stop()
         assert set(codes) == {'serial_sensor', 'gripper_driver', 'perception',
-                              'grasp_controller'}
+                              'grasp_controller', 'visualization'} | (
+            {'robot_state_publisher'} if robot_state_publisher_available() else set())
         assert all(code is not None for code in codes.values())
 
 
@@ -215,7 +300,10 @@ def test_forte_bringup_command_stops_cleanly_on_sigint(tmp_path):
         output = interrupt(process, timeout=60)
     assert process.returncode == 0, ''.join(lines) + output
     assert 'stopped: ' in output
-    for name in ('sim', 'perception', 'grasp_controller'):
+    # without robot_state_publisher: its one line, and the graph came up all the same
+    missing = [line for line in lines if ROBOT_STATE_PUBLISHER_MISSING in line]
+    assert len(missing) == (0 if robot_state_publisher_available() else 1), ''.join(lines)
+    for name in ('sim', 'perception', 'grasp_controller', 'visualization'):
         assert (tmp_path / 'logs' / f'{name}.log').is_file()
 
 

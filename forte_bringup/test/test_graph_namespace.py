@@ -29,6 +29,7 @@ from forte_bringup.graph import (
     namespaced_parameter_file,
     params_file,
 )
+from forte_bringup.robot_model import robot_state_publisher_available
 from forte_bringup.sim_force_model import force_model_path
 from forte_ros.contract import BASE_FRAME, JOINT_NAMES, joint_names, prefixed
 
@@ -95,7 +96,8 @@ def test_forte_bringup_commands_under_a_namespace(tmp_path: Path):
         assert 'prefix:=right_' in option_values(command, '-p')
         (parameters,) = option_values(command, '--params-file')
         assert set(yaml.safe_load(Path(parameters).read_text())) == {
-            '/right/sim', '/right/perception', '/right/grasp_controller'}
+            '/right/sim', '/right/perception', '/right/grasp_controller',
+            '/right/visualization', '/right/robot_state_publisher'}
     recorder = commands['recorder']
     assert '__ns:=/right' in option_values(recorder, '-r')
     assert '/clock:=/right/clock' in option_values(recorder, '-r')
@@ -110,7 +112,8 @@ def test_forte_bringup_commands_under_a_namespace(tmp_path: Path):
     hardware = Bringup('hardware', {'namespace': 'right', 'prefix': 'right_'}, echo=None)
     for name, command in hardware.commands().items():
         assert not [r for r in option_values(command, '-r') if r.startswith('/clock')]
-        assert 'prefix:=right_' in option_values(command, '-p'), name
+        if name != 'robot_state_publisher':  # it gets the prefixed URDF, not a prefix
+            assert 'prefix:=right_' in option_values(command, '-p'), name
 
 
 def test_force_model_defaults_to_the_simulated_rig_in_the_sim_graph_only(tmp_path: Path):
@@ -148,7 +151,8 @@ def test_launch_files_build_the_same_namespaced_nodes():
             actions += entity.execute(context) or []
     nodes = [action for action in actions if isinstance(action, Node)]
     assert [node.node_executable for node in nodes] == [
-        'sim_node', 'perception_node', 'grasp_controller_node']
+        'sim_node', 'perception_node', 'grasp_controller_node', 'forte_visualization'] + (
+        ['robot_state_publisher'] if robot_state_publisher_available() else [])
     for node in nodes:
         node._perform_substitutions(context)  # what launch_ros does when it starts it
         assert node.expanded_node_namespace == '/right'
@@ -156,7 +160,8 @@ def test_launch_files_build_the_same_namespaced_nodes():
         files = [Path(path) for path, _ in node._Node__expanded_parameter_arguments]
         documents = [yaml.safe_load(path.read_text()) for path in files]
         assert '/right/sim' in documents[0]  # the copy keyed by the namespaced names
-        assert documents[-1][node.node_name]['ros__parameters']['prefix'] == 'right_'
+        if node.node_executable != 'robot_state_publisher':  # the prefixed URDF instead
+            assert documents[-1][node.node_name]['ros__parameters']['prefix'] == 'right_'
 
 
 @pytest.mark.parametrize('mode', ['sim', 'hardware'])
@@ -218,4 +223,5 @@ def test_forte_bringup_runs_a_namespaced_sim_graph(tmp_path: Path):
             bringup.check_children()
         finally:
             codes = bringup.stop()
-    assert set(codes) == {'sim', 'perception', 'grasp_controller'}
+    assert set(codes) == {'sim', 'perception', 'grasp_controller', 'visualization'} | (
+        {'robot_state_publisher'} if robot_state_publisher_available() else set())

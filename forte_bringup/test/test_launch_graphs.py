@@ -9,6 +9,9 @@
 - hardware: an emulated sensor and simulated Dynamixel servos on pseudo-terminals, both
   lifecycle nodes ``active``, frames and joint states flowing.
 
+Every graph also runs its visualization node (``visualization``); robot_state_publisher
+only where it is installed (the topics it adds: test_visualization_live.py).
+
 Teardown: launch_pytest shuts the launch down when the test returns. A ChangeState call
 still in flight then is cancelled (an error at teardown), so every test first waits until
 each lifecycle node reports the final state the launch asked for (``active``): the launch's
@@ -78,7 +81,7 @@ def test_sim_graph_serves_a_grasp():
     from forte_msgs.msg import SimGroundTruth
 
     with watching() as watcher:
-        assert wait_for(lambda: {'sim', 'perception', 'grasp_controller'}
+        assert wait_for(lambda: {'sim', 'perception', 'grasp_controller', 'visualization'}
                         <= set(watcher.get_node_names()), UP), watcher.get_node_names()
         # the launch file configures, then activates once inactive
         assert watcher.wait_for_lifecycle_state('sim', 'active', UP) == 'active'
@@ -116,8 +119,9 @@ def test_replay_graph_drives_perception_from_a_bag():
         assert wait_for(lambda: watcher.counts['tactile/state'] > 20, UP), watcher.counts
         assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
         # node names arrive by discovery, which may trail the data under load
-        assert wait_for(lambda: {'bag_replay', 'perception', 'grasp_controller'}
-                        <= set(watcher.get_node_names()), WAIT), watcher.get_node_names()
+        assert wait_for(lambda: {'bag_replay', 'perception', 'grasp_controller',
+                                 'visualization'} <= set(watcher.get_node_names()), WAIT), \
+            watcher.get_node_names()
 
 
 # --- hardware ----------------------------------------------------------------------------
@@ -142,3 +146,5 @@ def test_hardware_graph_on_emulated_devices():
         assert wait_for(lambda: watcher.counts['joint_states'] > 10, WAIT), watcher.counts
         assert wait_for(lambda: watcher.counts['tactile/state'] > 10, WAIT), watcher.counts
         assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
+        assert wait_for(lambda: 'visualization' in watcher.get_node_names(), WAIT), \
+            watcher.get_node_names()

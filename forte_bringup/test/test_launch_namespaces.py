@@ -16,7 +16,9 @@ sim graph's default, the simulated rig's cached model). The test
   against the simulator, not the controller's belief;
 - asserts the joint names of each ``joint_states`` and the frame ids of each graph's
   messages (``forte_base_link`` / ``right_forte_base_link``, arm commands in ``base_link`` /
-  ``right_base_link``), and that perception was given the default model.
+  ``right_base_link``), the statuses on the shared ``/diagnostics`` named by node path
+  (``perception: ...``, ``right/perception: ...``), and that perception was given the
+  default model.
 
 Needs launch_pytest and launch_ros (a ROS 2 install, or the launch kit on a bare machine);
 skipped with that reason otherwise.
@@ -123,7 +125,10 @@ def grasp_in_thread(probe: Watcher, results: dict[str, Any], key: str) -> thread
 
     def run() -> None:
         goal = Grasp.Goal(controller=Grasp.Goal.FORTE, lift_distance=0.01, timeout=90.0)
-        results[key] = probe.grasp(goal, timeout=240.0)
+        try:
+            results[key] = probe.grasp(goal, timeout=240.0)
+        except Exception as error:  # noqa: BLE001  reported by the test, not lost in the thread
+            results[key] = error
 
     thread = threading.Thread(target=run, daemon=True)
     thread.start()
@@ -147,6 +152,12 @@ def test_two_namespaced_sim_grippers_share_only_ros_wide_names_and_both_lift():
             assert wait_for(lambda p=probe: p.truth is not None, WAIT)
             # no force_model argument: the sim graph's default, the simulated rig's model
             assert probe.parameter('perception', 'model_path') == str(force_model_path())
+        # /diagnostics is shared: each status names its node with the namespace
+        for node in ('sim', 'perception', 'grasp_controller'):
+            for namespace, _ in GRAPHS:
+                path = f'{namespace}/{node}'.lstrip('/')
+                assert wait_for(lambda p=path: any(name.startswith(f'{p}: ')
+                                                   for name in left.statuses), WAIT), path
         commands = [watch_frames(probe) for probe in probes]
         seen: list[set[str]] = [set(), set()]
         for index, (namespace, _) in enumerate(GRAPHS):
@@ -174,7 +185,9 @@ def test_two_namespaced_sim_grippers_share_only_ros_wide_names_and_both_lift():
 
         # each grasp LIFTED, by its own ground truth (the controller never sees it)
         for probe, (namespace, _) in zip(probes, GRAPHS, strict=True):
-            accepted, result, _ = results[namespace or '/']
+            answer = results[namespace or '/']
+            assert not isinstance(answer, Exception), (namespace, repr(answer))
+            accepted, result, _ = answer
             assert accepted and result is not None, (namespace, probe.last_grasp_state)
             truth = probe.truth
             assert (result.outcome, truth.object_state) == (

@@ -11,102 +11,34 @@ installed copies.
 """
 from __future__ import annotations
 
-import importlib
 import os
-import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
-import yaml
+from view_files import (
+    NUMERIC,
+    PLOTJUGGLER,
+    RVIZ,
+    RVIZ_TYPES,
+    TOPICS,
+    displays,
+    field_leaf,
+    load_layout,
+    load_rviz,
+    rviz_topics,
+    split_curve,
+)
 
 from forte_bringup.robot_model import ROBOT_DESCRIPTION_TOPIC
 from forte_bringup.visualization_node import MARKER_TOPIC, WRENCH_TOPICS
 from forte_ros.contract import BASE_FRAME
 
-ROOT = Path(__file__).resolve().parents[2]
-PACKAGE = ROOT / 'forte_bringup'
-RVIZ = PACKAGE / 'rviz' / 'forte.rviz'
-PLOTJUGGLER = PACKAGE / 'plotjuggler' / 'forte.xml'
-CONTRACTS = ROOT / 'docs' / 'contracts.md'
-#: Words of the contract table's producer column that name a node of the sim graph.
-SIM_PRODUCERS = ('sim', 'perception', 'control', 'every node')
-#: RViz display class -> the message type it subscribes to.
-RVIZ_TYPES = {
-    'rviz_default_plugins/Wrench': 'geometry_msgs/msg/WrenchStamped',
-    'rviz_default_plugins/MarkerArray': 'visualization_msgs/msg/MarkerArray',
-    'rviz_default_plugins/RobotModel': 'std_msgs/msg/String',
-}
-NUMERIC = {'boolean', 'octet', 'float', 'double', 'int8', 'uint8', 'int16', 'uint16', 'int32',
-           'uint32', 'int64', 'uint64'}
-
-
-def sim_graph_topics() -> dict[str, str]:
-    """Absolute topic -> message type (``pkg/msg/Name``) of the sim graph."""
-    topics = {}
-    for line in CONTRACTS.read_text().splitlines():
-        cells = [cell.strip().strip('`') for cell in line.strip().strip('|').split('|')]
-        if len(cells) != 4 or not re.fullmatch(r'\w+/\w+', cells[1]):
-            continue
-        producers = cells[3].split('->')[0]
-        if any(word in producers for word in SIM_PRODUCERS):
-            package, name = cells[1].split('/')
-            topics['/' + cells[0].lstrip('/')] = f'{package}/msg/{name}'
-    assert {'/tactile/frames', '/tactile/state', '/grasp/state', '/gripper/command'} <= \
-        set(topics), 'the contract topic table was not found'
-    topics.update({'/' + topic: 'geometry_msgs/msg/WrenchStamped' for topic in WRENCH_TOPICS})
-    topics['/' + MARKER_TOPIC] = 'visualization_msgs/msg/MarkerArray'
-    topics['/' + ROBOT_DESCRIPTION_TOPIC] = 'std_msgs/msg/String'
-    return topics
-
-
-TOPICS = sim_graph_topics()
-
-
-def get_message(message_type: str) -> type:
-    """The message class of ``pkg/msg/Name`` (what rosidl_runtime_py's ``get_message``
-    does; the packages are forte_bringup's declared dependencies)."""
-    package, _, name = message_type.split('/')
-    return getattr(importlib.import_module(f'{package}.msg'), name)
-
-
-def field_leaf(message_type: str, path: list[str]) -> str:
-    """The type of the field at ``path`` (``['header', 'stamp', 'sec']``, ``['data[3]']``)
-    of ``message_type``; raises AssertionError naming the first part that does not exist."""
-    fields = get_message(message_type).get_fields_and_field_types()
-    part, rest = path[0], path[1:]
-    name, index = re.fullmatch(r'(\w+)(?:\[(\d+)\])?', part).groups()
-    assert name in fields, f'{message_type} has no field {name!r} ({sorted(fields)})'
-    kind = fields[name]
-    static = re.fullmatch(r'(.+)\[(\d+)\]', kind)
-    dynamic = re.fullmatch(r'sequence<([^,>]+)(?:, (\d+))?>', kind)
-    if index is not None:
-        assert static or dynamic, f'{message_type}.{name} ({kind}) is not an array'
-        element, size = (static or dynamic).groups()
-        assert size is None or int(index) < int(size), \
-            f'{message_type}.{name}[{index}]: the array has {size} elements'
-        kind = element
-    else:
-        assert not (static or dynamic), f'{message_type}.{name} ({kind}) needs an index'
-    if '/' in kind:
-        assert rest, f'{message_type}.{name} is a message ({kind}), not a number'
-        package, type_name = kind.split('/')
-        return field_leaf(f'{package}/msg/{type_name}', rest)
-    assert not rest, f'{message_type}.{name} ({kind}) has no field {rest[0]!r}'
-    return kind
-
-
-def split_curve(curve: str) -> tuple[str, list[str]]:
-    """(topic, field path) of a PlotJuggler curve name; the topic is the longest known one."""
-    topic = max((t for t in TOPICS if curve.startswith(t + '/')), key=len, default=None)
-    assert topic is not None, f'curve {curve!r}: its topic is not a topic of the sim graph'
-    return topic, curve[len(topic) + 1:].split('/')
-
 
 # ---- PlotJuggler -----------------------------------------------------------------------------
 @pytest.fixture(scope='module')
 def layout() -> ET.Element:
-    return ET.parse(PLOTJUGGLER).getroot()
+    return load_layout(PLOTJUGGLER)
 
 
 def test_the_layout_has_the_structure_plotjuggler_reads(layout):
@@ -170,35 +102,24 @@ def test_the_field_check_finds_mistakes(curve, problem):
 
 
 # ---- RViz ------------------------------------------------------------------------------
-def displays(items: list[dict]) -> list[dict]:
-    """Every display, those inside groups included."""
-    out = []
-    for item in items:
-        out.append(item)
-        out += displays(item.get('Displays', []))
-    return out
-
-
 @pytest.fixture(scope='module')
 def rviz() -> dict:
-    return yaml.safe_load(RVIZ.read_text())
+    return load_rviz(RVIZ)
 
 
 def test_rviz_subscribes_to_sim_graph_topics_of_the_right_type(rviz):
     manager = rviz['Visualization Manager']
     assert manager['Global Options']['Fixed Frame'] == BASE_FRAME
     found = {}
-    for display in displays(manager['Displays']):
-        topic = display.get('Topic', display.get('Description Topic'))
-        if topic is None:
-            continue
-        name = topic['Value']
+    for name, (message_type, display) in rviz_topics(rviz).items():
         assert name in TOPICS, f'{display["Name"]}: {name} is not a topic of the sim graph'
-        assert RVIZ_TYPES[display['Class']] == TOPICS[name], display['Name']
+        assert message_type == TOPICS[name], display['Name']
+        topic = display.get('Topic', display.get('Description Topic'))
         assert topic['Reliability Policy'] == 'Reliable'
         found[name] = display
     classes = {display['Class'] for display in displays(manager['Displays'])}
     assert {'rviz_default_plugins/TF', 'rviz_default_plugins/RobotModel'} <= classes
+    assert set(RVIZ_TYPES) <= classes
     assert {'/' + t for t in WRENCH_TOPICS} | {'/' + MARKER_TOPIC} <= set(found)
     description = found['/' + ROBOT_DESCRIPTION_TOPIC]
     assert description['Description Source'] == 'Topic'
