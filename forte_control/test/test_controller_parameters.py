@@ -32,13 +32,21 @@ TEXTS = [name for name, value in DEFAULTS.items() if isinstance(value, str)]
 
 @pytest.fixture(scope='module')
 def controller():
-    """A grasp controller node in a context of its own (never spun: only its parameters)."""
+    """A grasp controller node in a context of its own (never spun: only its parameters).
+
+    Destroyed with its action servers and its context shut down at the end of the module:
+    nothing of it stays in the DDS domain that later tests of this process share.
+    """
     context = Context()
     rclpy.init(context=context)
-    node = GraspControllerNode(context=context)
-    yield node
-    node.destroy_node()
-    rclpy.shutdown(context=context)
+    try:
+        node = GraspControllerNode(context=context)
+        try:
+            yield node
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
 
 
 @pytest.fixture(scope='module')

@@ -96,7 +96,7 @@ from forte_msgs.msg import ServoCommand, TactileState
 from forte_msgs.srv import ResetFault
 from forte_ros import run_node
 from forte_ros.contract import prefixed
-from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status
+from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status, node_path
 from forte_ros.qos import COMMANDS, DIAGNOSTICS, GRASP_STATE, TACTILE_STATE
 
 __all__ = ['CONTROLLER_FIELDS', 'GraspControllerNode', 'main', 'stamp_to_seconds']
@@ -183,6 +183,26 @@ class GraspControllerNode(GripperCommandMixin, Node):
             goal_callback=self._on_goal, cancel_callback=self._on_cancel)
         # gripper_cmd / parallel_gripper_cmd, where control_msgs has them
         self._gripper_actions = create_gripper_action_servers(self)
+
+    def destroy_node(self) -> None:
+        """Destroy the action servers, then the node (rclpy's ``destroy_node``).
+
+        rclpy's ``Node.destroy_node`` destroys publishers, subscriptions, services, timers
+        and guard conditions, not waitables: an ``ActionServer`` left alive keeps the rcl
+        node (and with it the DDS participant of its context) alive, also after
+        ``rclpy.shutdown`` of that context, until the garbage collector frees the node. Its
+        ``grasp``, ``gripper_cmd`` and ``parallel_gripper_cmd`` servers would stay
+        discoverable with no executor to answer: an action client in the same domain takes
+        them for a live server and sends its goal into the void. Safe to call twice.
+        """
+        servers = [getattr(self, '_action', None),
+                   *getattr(self, '_gripper_actions', {}).values()]
+        self._action = None
+        self._gripper_actions = {}
+        for server in servers:
+            if server is not None:
+                server.destroy()
+        super().destroy_node()
 
     # -- parameters ----------------------------------------------------------------------
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
@@ -419,7 +439,7 @@ class GraspControllerNode(GripperCommandMixin, Node):
             'slip_reaction_latency_max_ms': f'{latencies[-1] * 1e3:.3f}'
             if latencies else 'n/a',
         }
-        status = diagnostic_status(f'{self.get_name()}: grasp controller', level, message,
+        status = diagnostic_status(f'{node_path(self)}: grasp controller', level, message,
                                    values, hardware_id='forte')
         self._diagnostics_pub.publish(diagnostic_array(self._time_msg(), [status]))
 
