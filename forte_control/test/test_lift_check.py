@@ -16,6 +16,7 @@ from forte_control.state_machine import GraspState, GraspStateMachine, Outcome
 from forte_control.state_machine.lift_check import (
     LiftCheckParams,
     LiftMonitor,
+    OpenGripperLevels,
     WrenchInput,
     closed_on_object_evidence,
     finger_levels,
@@ -43,6 +44,12 @@ def lift(monitor: LiftMonitor, pattern, *, lift_time=6.0, hold_time=1.0, flags=(
         reading = None if wrench is None else WrenchInput(t0 + t, wrench(t))
         monitor.update(t0 + t, pattern, flag, holding, reading, t0 + t)
     return monitor.verdict()
+
+
+#: Sensor drift since the tare (minutes at 0.00026 per square-root second per channel): the
+#: left finger's level +0.009, the right's -0.003, with no load on the pads.
+DRIFT = (0.003, 0.003, 0.003, -0.001, -0.001, -0.001)
+DRIFTED_EQUAL = tuple(a + b for a, b in zip(EQUAL, DRIFT, strict=True))
 
 
 def test_finger_levels_sum_each_fingers_channels():
@@ -77,6 +84,33 @@ def test_balance_tolerance_grows_with_the_load():
     assert lift(LiftMonitor(params), heavy).carried
     lopsided = (0.30, 0.20, 0.10, 0.27, 0.18, 0.09)            # 10 % apart
     assert not lift(LiftMonitor(params), lopsided).carried
+
+
+def test_open_gripper_levels_average_the_first_window_only():
+    levels = OpenGripperLevels(window=0.2, limit=0.02)
+    assert levels.zero() == (0.0, 0.0)  # no sample: nothing to subtract
+    for k in range(21):  # 0 .. 0.2 s: the open gripper
+        levels.update(1.0 + k * DT, DRIFT)
+    levels.update(1.0 + 0.2 + 0.5 * DT, (float('nan'),) * 6)  # an invalid sample is skipped
+    for k in range(22, 100):  # later: the fingers close on the object
+        levels.update(1.0 + k * DT, EQUAL)
+    assert levels.zero() == pytest.approx((0.009, -0.003), abs=1e-12)
+
+
+def test_a_loaded_start_is_not_taken_for_drift():
+    levels = OpenGripperLevels(window=0.2, limit=0.02)
+    for k in range(30):
+        levels.update(k * DT, EQUAL)  # 0.19 on each finger: touching something already
+    assert levels.zero() == (0.0, 0.0)
+
+
+def test_levels_are_measured_from_the_open_gripper():
+    """Drift since the tare unbalances a carried object's fingers (0.199 / 0.187, 0.012 apart
+    against 0.0118 allowed); measured from the open gripper's levels they are equal."""
+    assert not lift(LiftMonitor(LiftCheckParams()), DRIFTED_EQUAL).carried
+    verdict = lift(LiftMonitor(LiftCheckParams(), zero=(0.009, -0.003)), DRIFTED_EQUAL)
+    assert verdict.carried, verdict.reason
+    assert '0.1900 / 0.1900' in verdict.reason
 
 
 def test_slip_at_the_end_of_the_lift_means_still_sliding():
@@ -335,3 +369,26 @@ def test_no_probe_without_room_under_the_lift_cap():
     world.filtered = EQUAL
     out = world.run(limit=30.0)
     assert out.outcome == Outcome.LIFTED and 'set down' not in out.message
+
+
+@pytest.mark.parametrize('open_time, outcome', [(0.5, Outcome.LIFTED),
+                                                (0.0, Outcome.NOT_CARRIED)])
+def test_machine_judges_the_lift_from_the_open_gripper_levels(open_time, outcome):
+    """The tare is old: every sample carries DRIFT. With half a second of open gripper at the
+    start (as every grasp from open has), the carried object's equal fingers are seen; a
+    grasp that starts in contact has no such zero and the drift reads as unequal fingers."""
+    world = World()
+    world.filtered = DRIFT
+    world.start(state_machine.Controller.NO_SLIP)
+    end = world.now + 30.0
+    opened = world.now + open_time
+    while world.now < end:
+        world.now += DT
+        if world.now >= opened:
+            world.contact, world.force, world.filtered = (True, True), 0.4, DRIFTED_EQUAL
+        out = world.machine.step(world.inputs(), world.now)
+        if out.servo is not None:
+            world.theta = out.servo.position
+        if out.state == GraspState.DONE:
+            break
+    assert out.outcome == outcome, out.message

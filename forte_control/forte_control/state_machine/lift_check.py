@@ -16,6 +16,11 @@ what they were measured on: docs/control.md, "Lift verification"):
    probe lifts ``probe_distance`` more, holds and lowers back; the shear index (sum over fingers
    of distal - root) must not change by more than ``probe_unload``.
 
+Rules 1 and 3 compare levels, so they are measured from the open gripper: the finger levels
+of the first ``balance_window`` of the grasp (:class:`OpenGripperLevels`) are the zero of the
+lift's levels. The tare can be minutes old; the sensor drifts meanwhile (a random walk in each
+channel) and would otherwise unbalance the fingers of a carried object.
+
 Optionally (``use_wrench``, off by default) the wrist's vertical load must have grown by
 ``min_wrench_load`` since the lift began.
 
@@ -39,7 +44,8 @@ if TYPE_CHECKING:  # pragma: no cover - type hints only (state_machine imports t
     from forte_control.state_machine.controller_params import ControllerParams
     from forte_control.state_machine.types import PerceptionInput
 
-__all__ = ['DropDetector', 'LiftCheckParams', 'LiftMonitor', 'LiftVerdict', 'WrenchInput',
+__all__ = ['DropDetector', 'LiftCheckParams', 'LiftMonitor', 'LiftVerdict', 'OpenGripperLevels',
+           'WrenchInput',
            'closed_on_object_evidence', 'deformation_level', 'finger_levels']
 
 
@@ -145,16 +151,65 @@ def deformation_level(filtered: tuple[float, ...] | None) -> float | None:
     return sum(values) / len(values) if values else None
 
 
+class OpenGripperLevels:
+    """The finger levels of the open gripper at the start of a grasp: the lift check's zero.
+
+    The mean of :func:`finger_levels` over the samples of the first ``window`` seconds after
+    the first one (the fingers are still open: a grasp starts from an open gripper). A start
+    whose level exceeds ``limit`` on a finger is a loaded start (the gripper already touches
+    something); its load is real, not drift, and the zero is then (0, 0).
+
+    Parameters
+    ----------
+    window : float
+        Averaging time from the first sample [s].
+    limit : float
+        Largest |finger level| taken for drift [normalised].
+    """
+
+    def __init__(self, window: float, limit: float) -> None:
+        self.window = window
+        self.limit = limit
+        self._first: float | None = None
+        self._sums = [0.0, 0.0]
+        self._count = 0
+
+    def update(self, stamp: float, filtered: tuple[float, ...] | None) -> None:
+        """Take one valid perception sample (stamp [s], tared filtered channels)."""
+        levels = finger_levels(filtered)
+        if levels is None:
+            return
+        if self._first is None:
+            self._first = stamp
+        if stamp - self._first <= self.window:
+            self._sums = [total + level for total, level in zip(self._sums, levels, strict=True)]
+            self._count += 1
+
+    def zero(self) -> tuple[float, float]:
+        """(left, right) levels to subtract [normalised]; (0, 0) without samples or for a
+        loaded start."""
+        if not self._count:
+            return 0.0, 0.0
+        left, right = (total / self._count for total in self._sums)
+        if max(abs(left), abs(right)) > self.limit:
+            return 0.0, 0.0
+        return left, right
+
+
 class LiftMonitor:
     """Collect the evidence of one lift (LIFTING and HOLDING) and judge it at the end.
 
     Parameters
     ----------
     params : LiftCheckParams
+    zero : tuple of 2 float
+        Finger levels (left, right) that read as unloaded (:class:`OpenGripperLevels`)
+        [normalised].
     """
 
-    def __init__(self, params: LiftCheckParams) -> None:
+    def __init__(self, params: LiftCheckParams, zero: tuple[float, float] = (0.0, 0.0)) -> None:
         self.params = params
+        self.zero = zero
         # (stamp, left level, right level, shear index)
         self._levels: deque[tuple[float, float, float, float]] = deque()
         self._probe_reference: float | None = None  # shear index before the probe
@@ -188,6 +243,7 @@ class LiftMonitor:
         p = self.params
         levels = finger_levels(filtered)
         if levels is not None:
+            levels = (levels[0] - self.zero[0], levels[1] - self.zero[1])
             self._levels.append((stamp, levels[0], levels[1], shear_index(filtered)))
             self._peak_level = max(self._peak_level, levels[0] + levels[1])
             keep = max(p.balance_window, p.probe_window)

@@ -10,7 +10,7 @@ import math
 from collections.abc import Callable
 
 from forte_control.state_machine.controller_params import ControllerParams, grasp_params
-from forte_control.state_machine.lift_check import LiftCheckParams
+from forte_control.state_machine.lift_check import LiftCheckParams, OpenGripperLevels
 from forte_control.state_machine.phases import GraspPhases
 from forte_control.state_machine.progress import GraspProgress, LatestInputs
 from forte_control.state_machine.safety import (
@@ -164,7 +164,10 @@ class GraspStateMachine(GraspPhases):
         self._grasp = GraspProgress(goal=goal, params=params, lift_check=self._lift_check,
                                     start_time=now, phase_start=now,
                                     ramp_start_angle=max(start_angle, params.min_angle),
-                                    target_force=params.initial_force)
+                                    target_force=params.initial_force,
+                                    open_levels=OpenGripperLevels(
+                                        self._lift_check.balance_window,
+                                        2 * self._lift_check.min_finger_level))
         self._state = GraspState.CLOSING
         # the command starts where the gripper is: every active state has a command to hold
         self._command(self._grasp.ramp_start_angle, params.closing_speed)

@@ -66,6 +66,8 @@ class GraspPhases:
         joint = self._latest.joint
         assert grasp is not None and joint is not None
         p = grasp.params
+        if valid and perception is not None and grasp.open_levels is not None:
+            grasp.open_levels.update(perception.stamp, perception.filtered)
         if self._controller == Controller.ON_OFF:
             return self._closing_without_sensing(now)
         if valid and self._contact(perception):
@@ -375,7 +377,8 @@ class GraspPhases:
         assert grasp is not None
         self._enter(GraspState.LIFTING, now)
         grasp.drop = DropDetector(grasp.params)
-        grasp.lift = LiftMonitor(grasp.lift_check)
+        grasp.lift = LiftMonitor(grasp.lift_check, grasp.open_levels.zero()
+                                 if grasp.open_levels is not None else (0.0, 0.0))
         probe = grasp.lift_check.probe_distance if grasp.lift_check.verify_lift else 0.0
         if grasp.params.lift_distance + probe > grasp.params.max_lift_distance:
             probe = 0.0  # no room under the lift cap: judged without the probe

@@ -9,6 +9,7 @@ from forte_control.state_machine.lift_check import (
     DropDetector,
     LiftCheckParams,
     LiftMonitor,
+    OpenGripperLevels,
     WrenchInput,
 )
 from forte_control.state_machine.types import (
@@ -41,6 +42,7 @@ class GraspProgress:
     last_slip_stamp: float = -math.inf
     drop: DropDetector | None = None
     lift: LiftMonitor | None = None
+    open_levels: OpenGripperLevels | None = None  # the lift check's zero, from the open gripper
     lift_target: float = 0.0           # lift_distance, plus the set-down probe if any [m]
     probe_phase: str = ''              # '', 'down' (lowering), 'settle'
     probe_since: float = 0.0           # start of the probe's settle [s]
