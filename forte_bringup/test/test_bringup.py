@@ -247,8 +247,8 @@ def test_sim_graph_serves_a_grasp(watcher, tmp_path):
     model = force_model_file(tmp_path / 'force_model.npz')
     # half real time (sim.yaml's default, given here as the argument): the controller's
     # input queue must not lag its 0.5 s freshness bound when the machine is busy
-    # a raspberry: 0.25 N lifts it whatever the DDS timing (FORTE on the soda can of sim.yaml,
-    # seed 0, races its stick-slip, and the race goes either way over DDS: demo_scenes.py)
+    # a raspberry: 0.25 N lifts it whatever the DDS timing (FORTE on the soda can, seed 0,
+    # races its stick-slip, and the race goes either way over DDS: demo_scenes.py)
     bringup = Bringup('sim', {'object': 'raspberry', 'force_model': str(model),
                               'real_time_factor': '0.5'},
                       log_dir=tmp_path / 'logs', echo=None)

@@ -69,8 +69,8 @@ def force_model(tmp_path: Path) -> Path:
 @launch_pytest.fixture
 def sim_launch(force_model: Path) -> launch.LaunchDescription:
     # 0.4, not sim.yaml's 1.0: the node's parameter then shows the argument took effect;
-    # a raspberry: 0.25 N lifts it whatever the DDS timing (FORTE on sim.yaml's soda can races
-    # its stick-slip: demo_scenes.py)
+    # a raspberry: 0.25 N lifts it whatever the DDS timing (FORTE on the soda can races its
+    # stick-slip: demo_scenes.py)
     return include('sim', object='raspberry', force_model=str(force_model),
                    real_time_factor='0.4')
 

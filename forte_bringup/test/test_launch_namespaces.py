@@ -1,8 +1,9 @@
 """Two simulated grippers on one ROS domain (issue 27), under launch_pytest.
 
 ``sim.launch.py`` twice in one launch: a plain one and one with ``namespace:=right
-prefix:=right_``, neither with a ``force_model`` argument (so each perception runs on the
-sim graph's default, the simulated rig's cached model). The test
+prefix:=right_``, neither with a ``force_model`` nor an ``object`` argument (so each
+perception runs on the sim graph's default, the simulated rig's cached model, and each scene
+is sim.yaml's raspberry). The test
 
 - lists every name the two graphs use (node names; each node's publishers, subscriptions,
   services, clients, action servers and clients, read from the ROS graph before and during
@@ -10,7 +11,7 @@ sim graph's default, the simulated rig's cached model). The test
   that the graphs share none but the ROS-wide topics (``/rosout``, ``/parameter_events``,
   ``/tf``, ``/tf_static``, ``/diagnostics``); in particular each simulation has its own
   clock (``/clock``, ``/right/clock``);
-- sends a Grasp goal (FORTE, raspberry, lift 1 cm) to each graph's ``grasp`` action at the
+- sends a Grasp goal (FORTE, lift 1 cm) to each graph's ``grasp`` action at the
   same time and asserts that each ends LIFTED with its own ground truth
   (``sim/ground_truth`` of its namespace) HELD at the lift height: the claim is checked
   against the simulator, not the controller's belief;
@@ -68,9 +69,10 @@ def scoped_include(**arguments: str) -> GroupAction:
 @launch_pytest.fixture
 def two_grippers() -> launch.LaunchDescription:
     return launch.LaunchDescription([
-        scoped_include(object='raspberry', real_time_factor=REAL_TIME_FACTOR),
-        scoped_include(object='raspberry', seed='1', real_time_factor=REAL_TIME_FACTOR,
-                       namespace='right', prefix='right_'),
+        # sim.yaml's scene (the raspberry), as a user launches it
+        scoped_include(real_time_factor=REAL_TIME_FACTOR),
+        scoped_include(seed='1', real_time_factor=REAL_TIME_FACTOR, namespace='right',
+                       prefix='right_'),
         launch_pytest.actions.ReadyToTest(),
     ])
 

@@ -3,7 +3,7 @@
 A force model made with the package's tools (``ros2 run forte_sim forte_sim_dataset``,
 ``ros2 run forte_perception forte_train_force``), then ``ros2 launch forte_bringup
 sim.launch.py object:=raspberry force_model:=...`` with sim.yaml's other defaults (a
-raspberry: 0.25 N lifts it whatever the DDS timing, while FORTE on sim.yaml's soda can races
+raspberry: 0.25 N lifts it whatever the DDS timing, while FORTE on the soda can races
 its stick-slip: demo_scenes.py), and against that graph:
 ``ros2 topic hz /tactile/frames`` (100 batches/s x real_time_factor), ``ros2 lifecycle
 get/set /sim``, ``ros2 action send_goal /grasp forte_msgs/action/Grasp ...`` (FORTE, lift
