@@ -9,7 +9,9 @@ reported angle), never the labels. Modes: ``'paper'``, the paper's detector exac
 ``SlipParams(mode='robust')`` (:mod:`forte_perception.slip.robust`); and
 ``'robust_servo_gate'``, the robust detector whose flags are dropped for
 :data:`SERVO_HOLD` s after a change of the commanded servo angle (:func:`servo_gate`: uses
-the command, which the detector does not have, so a controller-side option).
+the command, which the detector does not have, so a controller-side option); ``'cusum'``,
+issue 26's candidate: a CUSUM on the robust mode's band power relative to each channel's
+measured quiet level (:func:`cusum_mode`, :mod:`forte_perception.slip.cusum`).
 
 :func:`run_mode` runs a mode over scenes ``repeats`` times; the detections of the first run
 are scored (:mod:`forte_perception.evaluation.slip_metrics`), the CPU time is
@@ -37,10 +39,12 @@ from forte_perception.evaluation.slip_metrics import (
     summarise,
 )
 from forte_perception.median import MEDIAN_WINDOW, running_median
+from forte_perception.slip.cusum import BandPowerCusum, CusumParams
 from forte_perception.slip.detector import SlipParams, slip_features
+from forte_perception.slip.robust import level_shift_veto
 
-__all__ = ['MODES', 'SERVO_HOLD', 'Detection', 'SensorInput', 'markdown', 'paper_mode',
-           'prepare', 'report', 'robust_mode', 'robust_servo_gate_mode', 'run_mode',
+__all__ = ['MODES', 'SERVO_HOLD', 'Detection', 'SensorInput', 'cusum_mode', 'markdown',
+           'paper_mode', 'prepare', 'report', 'robust_mode', 'robust_servo_gate_mode', 'run_mode',
            'servo_gate']
 
 
@@ -91,6 +95,25 @@ def robust_mode(inp: SensorInput, params: SlipParams | None = None) -> Detection
     return Detection(res.sample_index, res.slip, int(params.hop))
 
 
+def cusum_mode(inp: SensorInput, cusum: CusumParams | None = None,
+               params: SlipParams | None = None, veto: bool = True) -> Detection:
+    """The band-power CUSUM of issue 26 (:mod:`forte_perception.slip.cusum`) on the robust
+    mode's PSD features (quantisation floor), with the robust mode's level-shift veto asked
+    at every alarm unless ``veto`` is False. Flags are the alarms (slip events)."""
+    params = params or SlipParams(mode='robust')
+    res = slip_features(inp.filtered, fs=inp.fs, params=params)
+    ends, psd = res.sample_index, res.psd_max_db
+    one = np.ones(1, bool)
+
+    def drop(i: int) -> bool:
+        return bool(level_shift_veto(inp.filtered, 0, ends[i:i + 1], psd[i:i + 1], one,
+                                     params, inp.fs)[0])
+
+    detector = BandPowerCusum(int(params.hop) / inp.fs, cusum)
+    out = detector.update(psd, drop if veto else None)
+    return Detection(ends, out.slip, int(params.hop))
+
+
 #: Flags are ignored for this long after a change of the commanded servo angle [s].
 SERVO_HOLD = 0.35
 
@@ -124,7 +147,8 @@ def robust_servo_gate_mode(inp: SensorInput) -> Detection:
 
 #: Detector modes by name.
 MODES: dict[str, Callable[[SensorInput], Detection]] = {
-    'paper': paper_mode, 'robust': robust_mode, 'robust_servo_gate': robust_servo_gate_mode}
+    'paper': paper_mode, 'robust': robust_mode, 'robust_servo_gate': robust_servo_gate_mode,
+    'cusum': cusum_mode}
 
 
 def prepare(scenes: list[SlipScene], median_window: int = MEDIAN_WINDOW) -> list[SensorInput]:

@@ -1,0 +1,349 @@
+"""Slip as sequential change detection: a CUSUM on the log band power (issue 26, a candidate mode).
+
+Derivation
+----------
+**Observation.** Per channel c and detector update t (every ``hop`` samples) the slip
+detector already computes ``y_c(t)`` = the maximum over the 10-50 Hz bins of the Hann-windowed
+PSD of the last N samples, in dB (``psd_max_db``; with the quantisation floor of the robust
+mode added before the logarithm, :mod:`forte_perception.slip.robust`, so that silence and
+sub-LSB noise give a finite, nearly constant value instead of -120 dB). Slip adds vibration
+in the band: before the onset ``y_c`` fluctuates around the channel's own quiet level
+``L_c``; after it, it lies ``D`` dB higher for as long as the object slides (D is about 20 dB
+for a 3-LSB ringing over 1 LSB of noise, 40 dB and more for strong stick-slip). In dB the
+fluctuation does not depend on the noise level (the log of a scaled chi-square variable has
+a fixed spread, a few dB for the maximum of 9 bins), so one drift ``k`` in dB fits every
+channel once its own level is subtracted: ``z_c = y_c - L_c``.
+
+**Statistic.** For a change of the mean of independent observations from 0 to ``D`` (noise
+variance ``s^2``) the log-likelihood ratio of one observation is ``(D / s^2) (z - D / 2)``.
+Page's CUSUM ``S(t) = max(0, S(t-1) + llr(t))`` with an alarm when ``S > h'`` is the test
+that minimises the worst-case detection delay among all tests with the same mean time
+between false alarms (Lorden 1971, Moustakides 1986). Dividing the LLR by the constant
+``D / s^2`` keeps the test and puts the statistic in dB: increment ``z - k`` with the
+*drift* ``k = D / 2``. The three channels of a finger see the same slip; their LLRs add, and
+averaging them (the same test, scaled by 1/3) gives per finger f
+
+    ``S_f(t) = max(0, S_f(t-1) + (zbar_f(t) - k) * dt)``,   alarm when ``S_f > h``,
+
+``zbar_f`` = mean of ``z_c`` over the finger's usable channels, ``dt = hop / fs`` [s], so
+``S`` and ``h`` are in dB s and do not depend on the hop. A finger alarms alone: stick-slip
+under the leading finger needs nothing from the other one (the paper's alpha gate does).
+
+**Delay and false alarms.** For a step of size ``D > k`` in ``zbar`` (noise-free) the alarm
+comes at the first update with ``(D - k) * n * dt > h``: ``n = floor(h / ((D - k) dt)) + 1``
+updates after the step (:func:`expected_delay`; with noise, Wald's approximation
+``h / (D - k)`` plus the overshoot). A quiet channel has ``E[z] = 0 < k``: ``S`` drifts to
+0 at ``k`` dB per second and an alarm needs an excursion of the band power ``k`` dB above
+the level lasting ``h / (excess - k)`` seconds. For independent observations the mean time
+between false alarms grows exponentially with ``h`` while the delay grows linearly: that is
+the curve of :mod:`forte_perception.evaluation.change_detection`. The updates are not
+independent (windows overlap 99 %, so ``y`` is correlated over about N / hop updates), so
+the exponential law holds only in shape; ``h`` and ``k`` are set from measured false alarms
+on the tune part of the slip set, not from a formula. Delay is counted from when ``zbar``
+rises; the window itself adds the time the slip's vibration needs to dominate the
+Hann-weighted 200 ms window (a few tens of ms for a strong slip).
+
+**Quiet level.** ``L_c`` is measured, not a constant: per block of ``level_block`` seconds
+(fixed absolute update indices), the median of ``y_c`` over the block's *quiet* updates
+(the finger neither slipping nor accumulating, ``S_f = 0``) moves ``L_c`` by the fraction
+``1 - exp(-level_block / level_tau)`` towards it; the first block with a finite value sets
+it. Until a channel has a level it is not usable; a finger without usable channels cannot
+alarm. The median keeps a few transient values in a block from moving the level.
+
+**Slipping state.** The alarm is the slip *event*; the finger is then *slipping* while its
+band power stays above its quiet level: the state is cleared when ``zbar_f < margin`` dB
+has held for ``clear_time`` seconds (hysteresis: raised by accumulated evidence above
+``k``, cleared by the level falling below ``margin``). Then ``S_f`` restarts at 0. A
+sustained slide is thus one event and one held state, not a change into slip followed by
+silence.
+
+**Distractors.** An optional veto (a callback, e.g. the robust mode's level-shift veto,
+:func:`forte_perception.slip.robust.level_shift_veto`) is asked at every alarm; a vetoed
+alarm raises nothing and restarts ``S_f`` at 0, so a slip that outlasts the distractor is
+found when it alarms again.
+
+**Missing data, silence, saturation.** Nothing is invented. A NaN or inf ``y_c`` (a masked
+channel) is left out of its finger's mean and of its level; a finger with no usable channel
+contributes no evidence at that update (increment 0: its ``S`` is held), cannot clear or
+raise its state (``zbar`` unknown), and does not move its levels. Silence and a railed
+(constant) channel give ``y_c`` = the floor: below the level, so never an alarm, and the
+level follows it down slowly (``level_tau``).
+
+**Exactness.** Within a segment ``S`` is computed in closed form (Lindley): with
+``C(t) = S0 + sum(x)`` (a sequential cumulative sum carried across calls) and
+``M(t) = min(0, C(.) up to t)``, ``S(t) = C(t) - M(t)``; segments end at block boundaries,
+alarms and clears, so the work is vectorised and feeding updates in chunks of any size gives
+bit for bit the batch result.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
+
+__all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'expected_delay']
+
+
+@dataclass(frozen=True)
+class CusumParams:
+    """Parameters of the band-power CUSUM (derivation in the module docstring).
+
+    Attributes
+    ----------
+    drift : float
+        k: half the band-power rise the test is tuned to [dB] (6).
+    threshold : float
+        h: alarm when the finger statistic exceeds it [dB s] (0.05).
+    margin : float
+        The finger stays slipping while its mean excess over the quiet level is at least
+        this [dB] (3).
+    clear_time : float
+        ... and is cleared once it has been below for this long [s] (0.01).
+    level_block : float
+        The quiet level is updated once per block of this length [s] (0.2); the first
+        block is the warm-up.
+    level_tau : float
+        Time constant of the quiet level [s] (5).
+    """
+
+    drift: float = 6.0
+    threshold: float = 0.05
+    margin: float = 3.0
+    clear_time: float = 0.01
+    level_block: float = 0.2
+    level_tau: float = 5.0
+
+    def validate(self) -> None:
+        """Raise ValueError with a reason if a value is unusable."""
+        for name in ('drift', 'threshold', 'level_block', 'level_tau'):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f'{name} must be positive and finite, got {value}')
+        if not np.isfinite(self.margin):
+            raise ValueError(f'margin must be finite, got {self.margin}')
+        if not (np.isfinite(self.clear_time) and self.clear_time >= 0):
+            raise ValueError(f'clear_time must be >= 0, got {self.clear_time}')
+
+
+def expected_delay(step_db: float, params: CusumParams, dt: float) -> float:
+    """Updates from a noise-free step of ``step_db`` in the finger excess to the alarm,
+    starting from ``S = 0`` (inf when the step does not exceed the drift)."""
+    rate = (step_db - params.drift) * dt
+    if rate <= 0:
+        return math.inf
+    return math.floor(params.threshold / rate) + 1
+
+
+@dataclass
+class CusumResult:
+    """Per-update output of :class:`BandPowerCusum` (m updates).
+
+    Attributes
+    ----------
+    statistic : ndarray (m, 2)
+        S per finger (left, right) [dB s]; NaN while the finger is slipping.
+    excess : ndarray (m, 2)
+        Mean excess of the finger's usable channels over their quiet levels [dB]; NaN
+        without a usable channel.
+    alarm : ndarray (m, 2), bool
+        A finger's (not vetoed) alarm: the slip event.
+    slipping : ndarray (m, 2), bool
+        The finger's slipping state after the update.
+    active : ndarray (m,), bool
+        Some channel has a quiet level (the warm-up is over).
+    vetoed : int
+        Alarms the veto dropped.
+    """
+
+    statistic: np.ndarray
+    excess: np.ndarray
+    alarm: np.ndarray
+    slipping: np.ndarray
+    active: np.ndarray
+    vetoed: int = 0
+
+    @property
+    def slip(self) -> np.ndarray:
+        """Slip event per update: either finger alarms, (m,) bool."""
+        return self.alarm.any(axis=1)
+
+    @property
+    def any_slipping(self) -> np.ndarray:
+        """Slipping state per update: either finger slipping, (m,) bool."""
+        return self.slipping.any(axis=1)
+
+
+@dataclass
+class _Finger:
+    """Carried state of one finger."""
+
+    c: float = 0.0          # C(t): sequential cumulative sum since the last restart
+    m: float = 0.0          # M(t) = min(0, C up to t)
+    slipping: bool = False
+    below: int = 0          # consecutive updates below the margin while slipping
+    channels: tuple[int, ...] = field(default_factory=tuple)
+
+
+class BandPowerCusum:
+    """Streaming CUSUM on ``psd_max_db`` updates: feed them in chunks of any size.
+
+    Parameters
+    ----------
+    dt : float
+        Time between updates, ``hop / fs`` [s].
+    params : CusumParams, optional
+    """
+
+    def __init__(self, dt: float, params: CusumParams | None = None) -> None:
+        self.params = params or CusumParams()
+        self.params.validate()
+        if not (np.isfinite(dt) and dt > 0):
+            raise ValueError(f'dt must be positive, got {dt}')
+        self.dt = float(dt)
+        self._block = max(1, int(round(self.params.level_block / self.dt)))
+        self._clear = int(math.ceil(self.params.clear_time / self.dt - 1e-9))
+        self._beta = 1.0 - math.exp(-self._block * self.dt / self.params.level_tau)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything, levels included: the next update is update 0 again."""
+        self._updates = 0
+        self._level = np.full(N_CHANNELS, np.nan)
+        self._fingers = [_Finger(channels=tuple(c)) for c in FINGER_CHANNELS]
+        self._block_y: list[np.ndarray] = []
+        self._block_quiet: list[np.ndarray] = []
+
+    @property
+    def level(self) -> np.ndarray:
+        """Quiet level per channel [dB]; NaN before its first block."""
+        return self._level.copy()
+
+    def update(self, psd_db: np.ndarray, veto: Callable[[int], bool] | None = None
+               ) -> CusumResult:
+        """Consume updates ``psd_db`` (m, 6) [dB] and return their decisions.
+
+        Parameters
+        ----------
+        psd_db : ndarray (m, 6)
+            Band maximum per channel [dB]; NaN / inf = channel unusable at that update.
+        veto : callable, optional
+            ``i -> bool`` for an alarm at row ``i`` of this chunk; True drops it.
+        """
+        y = np.asarray(psd_db, np.float64).reshape(-1, N_CHANNELS)
+        m = y.shape[0]
+        out = CusumResult(np.full((m, 2), np.nan), np.full((m, 2), np.nan),
+                          np.zeros((m, 2), bool), np.zeros((m, 2), bool), np.zeros(m, bool))
+        pos = 0
+        while pos < m:
+            block_end = (self._updates // self._block + 1) * self._block
+            stop = min(m, pos + block_end - self._updates)
+            self._segment(y, pos, stop, out, veto)
+            self._updates += stop - pos
+            if self._updates == block_end:
+                self._close_block()
+            pos = stop
+        return out
+
+    # -- one stretch of updates with constant levels
+    def _segment(self, y: np.ndarray, lo: int, hi: int, out: CusumResult,
+                 veto: Callable[[int], bool] | None) -> None:
+        seg = y[lo:hi]
+        z = seg - self._level  # NaN where the channel is unusable or has no level yet
+        usable = np.isfinite(z)
+        out.active[lo:hi] = usable.any(axis=1) | np.isfinite(self._level).any()
+        quiet = np.zeros(seg.shape, bool)
+        for f, finger in enumerate(self._fingers):
+            ch = list(finger.channels)
+            count = usable[:, ch].sum(axis=1)
+            total = np.where(usable[:, ch], z[:, ch], 0.0).sum(axis=1)
+            zbar = np.where(count > 0, total / np.maximum(count, 1), np.nan)
+            out.excess[lo:hi, f] = zbar
+            x = np.where(count > 0, (zbar - self.params.drift) * self.dt, 0.0)
+            s, slipping, alarm = self._run(finger, x, zbar, lo, veto, out)
+            out.statistic[lo:hi, f] = s
+            out.slipping[lo:hi, f] = slipping
+            out.alarm[lo:hi, f] = alarm
+            quiet[:, ch] = (~slipping & (s == 0.0))[:, None]
+        self._block_y.append(seg)
+        self._block_quiet.append(quiet & np.isfinite(seg))
+
+    def _run(self, finger: _Finger, x: np.ndarray, zbar: np.ndarray, offset: int,
+             veto: Callable[[int], bool] | None, out: CusumResult
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The state machine of one finger over one segment: CUSUM (closed form) until an
+        alarm, slipping until cleared, again."""
+        n = x.size
+        s = np.full(n, np.nan)
+        slipping = np.zeros(n, bool)
+        alarm = np.zeros(n, bool)
+        i = 0
+        while i < n:
+            if finger.slipping:
+                j = self._clear_index(finger, zbar[i:])
+                if j is None:
+                    slipping[i:] = True
+                    return s, slipping, alarm
+                slipping[i:i + j] = True  # cleared at i + j: the statistic restarts there
+                s[i + j] = 0.0
+                finger.slipping, finger.c, finger.m = False, 0.0, 0.0
+                i += j + 1
+                continue
+            part = x[i:].copy()
+            part[0] += finger.c
+            c = np.add.accumulate(part)
+            mins = np.minimum.accumulate(np.minimum(c, finger.m))
+            stat = c - mins
+            over = np.flatnonzero(stat > self.params.threshold)
+            if not over.size:
+                s[i:] = stat
+                finger.c, finger.m = float(c[-1]), float(mins[-1])
+                return s, slipping, alarm
+            a = int(over[0])
+            s[i:i + a + 1] = stat[:a + 1]
+            finger.c, finger.m = 0.0, 0.0
+            if veto is not None and veto(offset + i + a):
+                out.vetoed += 1
+            else:
+                alarm[i + a] = True
+                slipping[i + a] = True
+                s[i + a] = np.nan
+                finger.slipping, finger.below = True, 0
+            i += a + 1
+        return s, slipping, alarm
+
+    def _clear_index(self, finger: _Finger, zbar: np.ndarray) -> int | None:
+        """Index at which the slipping finger clears (its excess below the margin for
+        ``clear_time``, counting the run carried from earlier updates), or None; updates
+        ``finger.below``."""
+        below = zbar < self.params.margin  # NaN: not below (unknown)
+        k = np.arange(below.size)
+        last_not = np.maximum.accumulate(np.where(below, -1, k))
+        run = np.where(last_not < 0, k + 1 + finger.below, k - last_not)
+        need = max(self._clear, 1)
+        hit = np.flatnonzero(run >= need)
+        if hit.size:
+            return int(hit[0])
+        finger.below = int(run[-1]) if run.size else finger.below
+        return None
+
+    def _close_block(self) -> None:
+        """Update the quiet levels from the finished block; re-base the statistics."""
+        y = np.concatenate(self._block_y)
+        quiet = np.concatenate(self._block_quiet)
+        for c in range(N_CHANNELS):
+            values = y[quiet[:, c], c]
+            if not values.size:
+                continue
+            med = float(np.median(values))
+            if np.isnan(self._level[c]):
+                self._level[c] = med
+            else:
+                self._level[c] += self._beta * (med - self._level[c])
+        for finger in self._fingers:
+            if not finger.slipping:  # S = C - M; re-base so that C stays small
+                finger.c, finger.m = finger.c - finger.m, 0.0
+        self._block_y, self._block_quiet = [], []
