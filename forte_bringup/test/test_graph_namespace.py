@@ -24,11 +24,11 @@ from forte_bringup.bringup import Bringup, BringupError
 from forte_bringup.graph import (
     GRAPHS,
     check_prefix,
-    force_model_source,
     graph_namespace,
     namespaced_parameter_file,
     params_file,
 )
+from forte_bringup.graph_nodes import force_model_source
 from forte_bringup.robot_model import robot_state_publisher_available
 from forte_bringup.sim_force_model import force_model_path
 from forte_ros.contract import BASE_FRAME, JOINT_NAMES, joint_names, prefixed
