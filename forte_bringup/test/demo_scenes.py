@@ -50,8 +50,13 @@ EXPECTED = {
 #: max_tightening allows: over DDS, message timing changes how many fit before the lift
 #: ends (one CI run on a loaded machine: NOT_CARRIED, RESTING). The closed loop is
 #: deterministic and must give EXPECTED exactly.
+#: The glass bottle of seed 0 is single-outcome in the closed loop (batches of 10-40
+#: samples), but over DDS FORTE's tightenings came too late for it in 1 of 3 quiet CI runs
+#: of 2026-11-26 (the bottle slid back onto the table: NOT_CARRIED, RESTING, the set-down
+#: probe saw the table take the load).
 GRAPH_RACES = {
     ('soda_can', 'FORTE'): ('NOT_CARRIED', 'RESTING'),
+    ('glass_bottle', 'FORTE'): ('NOT_CARRIED', 'RESTING'),
 }
 
 
