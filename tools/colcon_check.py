@@ -305,6 +305,8 @@ def colcon_build_and_test(ws: Path, setup: Path, logs: Path, test_args: list[str
            if k not in ('VIRTUAL_ENV', 'PYTHONPATH', 'AMENT_PREFIX_PATH', 'CMAKE_PREFIX_PATH',
                         'COLCON_PREFIX_PATH', 'LD_LIBRARY_PATH')}
     env['PATH'] = '/usr/local/bin:/usr/bin:/bin'  # a login shell's, then setup.bash
+    for name in ('build.log', 'test.log', 'test_result.log'):  # this run's only (a kept
+        (logs / name).unlink(missing_ok=True)                  # --work showed old results)
     begin = time.monotonic()
     run(['bash', '-c', shell + 'colcon build --symlink-install '
          '--event-handlers console_direct- summary+'], logs / 'build.log', env=env)

@@ -41,7 +41,6 @@ from typing import Any, TextIO
 
 from forte_bringup.graph import (
     GRAPHS,
-    NO_FORCE_MODEL_WARNING,
     RECORDER,
     TRANSITION_ATTEMPTS,
     TRANSITION_RETRY_DELAY,
@@ -49,7 +48,6 @@ from forte_bringup.graph import (
     NodeSpec,
     argument_settings,
     clock_remappings,
-    force_model_source,
     graph_namespace,
     namespaced_parameter_file,
     overlay_nodes,
@@ -57,7 +55,7 @@ from forte_bringup.graph import (
     params_file,
     recorder_topics,
 )
-from forte_bringup.graph_nodes import started_nodes
+from forte_bringup.graph_nodes import force_model_source, prepare_force_model, started_nodes
 from forte_ros.isolation import isolate_ros_network
 
 #: lifecycle_msgs/msg/Transition ids used here.
@@ -270,7 +268,7 @@ class Bringup:
                                   if self.overlay is not None else None)
         except ValueError as error:
             raise BringupError(str(error)) from error
-        #: where perception's force model comes from (graph.force_model_source): 'sim' =
+        #: where perception's force model comes from (graph_nodes.force_model_source): 'sim' =
         #: the simulated rig's cached model, made at start() if missing
         self.force_model_source = force_model_source(self.graph, self.arguments, self.params,
                                                      self.overlay)
@@ -333,7 +331,7 @@ class Bringup:
             lifecycle transition fails; everything started is stopped again first.
         """
         self.log_dir.mkdir(parents=True, exist_ok=True)
-        self._prepare_force_model()
+        prepare_force_model(self.force_model_source, self.graph.name, self._say)
         for note in self.notes:  # one line each, and the graph goes on without that node
             print(f'[forte_bringup] {note}', file=self.echo or sys.stderr, flush=True)
         try:
@@ -348,19 +346,11 @@ class Bringup:
             self.stop()
             raise
 
-    def _prepare_force_model(self) -> None:
-        """Make the sim graph's default force model if it is not cached; warn on hardware
-        without a model (:data:`forte_bringup.graph.NO_FORCE_MODEL_WARNING`)."""
-        if self.force_model_source == 'sim':
-            from forte_bringup.sim_force_model import default_force_model_file, force_model_path
-
-            if self.echo is not None:
-                self.echo.write("[forte_bringup] force model: the simulated rig's, " + (
-                    f'{force_model_path()}\n' if force_model_path().is_file() else
-                    f'making it (6-13 s, once; cached as {force_model_path()})\n'))
-            default_force_model_file()
-        elif self.force_model_source == 'none' and self.graph.name == 'hardware':
-            print(f'[forte_bringup] warning: {NO_FORCE_MODEL_WARNING}', file=sys.stderr)
+    def _say(self, line: str) -> None:
+        """Show a line of the front end: warnings on stderr, the rest on ``echo``."""
+        stream = sys.stderr if line.startswith('WARNING') else self.echo
+        if stream is not None:
+            stream.write(f'[forte_bringup] {line}\n')
 
     def _start_manager(self) -> None:
         import rclpy

@@ -395,63 +395,6 @@ def overlay_nodes(path: str | Path, graph: GraphSpec) -> set[str]:
     return set(document)
 
 
-#: Logged by the front ends when the hardware graph starts without a force model.
-NO_FORCE_MODEL_WARNING = (
-    'no force model (force_model:= empty, no perception model_path in the YAML): FORTE and '
-    'NO_SLIP grasps will end FAULT INVALID_INPUT (no valid force estimate); ON_OFF works. '
-    'Calibrate this gripper (ros2 launch forte_bringup calibrate_force.launch.py '
-    'mode:=hardware, then forte_train_force) and give force_model:=<model.npz>. The '
-    "simulated rig's model is never used on hardware.")
-
-
-def _yaml_parameter(path: str | Path | None, node: str, name: str) -> object | None:
-    """Value of parameter ``name`` of ``node`` in a parameter YAML (None: not set there).
-
-    Looks in the blocks keyed ``/**``, ``node`` and ``/node``; an empty value counts as
-    not set.
-    """
-    if not path:
-        return None
-    try:
-        document = yaml.safe_load(Path(path).read_text(encoding='utf-8'))
-    except (OSError, yaml.YAMLError):
-        return None
-    value = None
-    for key in ('/**', node, f'/{node}'):
-        block = document.get(key) if isinstance(document, dict) else None
-        parameters = block.get('ros__parameters') if isinstance(block, dict) else None
-        if isinstance(parameters, dict) and parameters.get(name) not in (None, ''):
-            value = parameters[name]
-    return value
-
-
-def force_model_source(graph: GraphSpec, arguments: Mapping[str, str],
-                       params: str | Path | None, overlay: str | Path | None = None) -> str:
-    """Where perception's force model comes from in this graph.
-
-    Parameters
-    ----------
-    graph : GraphSpec
-        The graph.
-    arguments : mapping of str to str
-        Argument values (``force_model``).
-    params, overlay : str or Path, optional
-        The parameter YAML and the overlay (perception's ``model_path``).
-
-    Returns
-    -------
-    str
-        ``'argument'`` (``force_model:=``), ``'yaml'`` (the YAML or overlay sets
-        ``model_path``), ``'sim'`` (the sim graph's default: the simulated rig's model,
-        which the front ends then give as ``force_model``) or ``'none'``.
-    """
-    if arguments.get('force_model', ''):
-        return 'argument'
-    if any(_yaml_parameter(path, PERCEPTION.name, 'model_path') for path in (params, overlay)):
-        return 'yaml'
-    return 'sim' if graph.sim_force_model else 'none'
-
-
 #: A ROS namespace token: letters, digits, underscores, not starting with a digit.
 _NAMESPACE_TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*')
 #: A TF / joint-name prefix: letters, digits, underscores and inner slashes (tf2 frame ids

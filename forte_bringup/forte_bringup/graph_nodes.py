@@ -11,16 +11,23 @@ node it can start; two are optional:
   runs without it.
 
 The launch files (:mod:`forte_bringup.launch_support`) and ``forte_bringup``
-(:mod:`forte_bringup.bringup`) both start exactly :func:`started_nodes`.
+(:mod:`forte_bringup.bringup`) both start exactly :func:`started_nodes`, and both give
+perception its force model through :func:`force_model_source` and
+:func:`prepare_force_model` (the sim graph's default: the simulated rig's cached model; on
+hardware without one, :data:`NO_FORCE_MODEL_WARNING`).
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from pathlib import Path
 
-from forte_bringup.graph import GraphSpec, NodeSpec
+import yaml
+
+from forte_bringup.graph import PERCEPTION, GraphSpec, NodeSpec
 from forte_bringup.robot_model import robot_state_publisher_message
 
-__all__ = ['enabled', 'started_nodes']
+__all__ = ['NO_FORCE_MODEL_WARNING', 'enabled', 'force_model_source', 'prepare_force_model',
+           'started_nodes']
 
 
 def enabled(graph: GraphSpec, spec: NodeSpec, arguments: Mapping[str, str]) -> bool:
@@ -82,3 +89,92 @@ def started_nodes(graph: GraphSpec, arguments: Mapping[str, str],
                 continue
         nodes.append(spec)
     return nodes, notes
+
+
+#: Logged by the front ends when the hardware graph starts without a force model.
+NO_FORCE_MODEL_WARNING = (
+    'no force model (force_model:= empty, no perception model_path in the YAML): FORTE and '
+    'NO_SLIP grasps will end FAULT INVALID_INPUT (no valid force estimate); ON_OFF works. '
+    'Calibrate this gripper (ros2 launch forte_bringup calibrate_force.launch.py '
+    'mode:=hardware, then forte_train_force) and give force_model:=<model.npz>. The '
+    "simulated rig's model is never used on hardware.")
+
+
+def _yaml_parameter(path: str | Path | None, node: str, name: str) -> object | None:
+    """Value of parameter ``name`` of ``node`` in a parameter YAML (None: not set there).
+
+    Looks in the blocks keyed ``/**``, ``node`` and ``/node``; an empty value counts as
+    not set.
+    """
+    if not path:
+        return None
+    try:
+        document = yaml.safe_load(Path(path).read_text(encoding='utf-8'))
+    except (OSError, yaml.YAMLError):
+        return None
+    value = None
+    for key in ('/**', node, f'/{node}'):
+        block = document.get(key) if isinstance(document, dict) else None
+        parameters = block.get('ros__parameters') if isinstance(block, dict) else None
+        if isinstance(parameters, dict) and parameters.get(name) not in (None, ''):
+            value = parameters[name]
+    return value
+
+
+def force_model_source(graph: GraphSpec, arguments: Mapping[str, str],
+                       params: str | Path | None, overlay: str | Path | None = None) -> str:
+    """Where perception's force model comes from in this graph.
+
+    Parameters
+    ----------
+    graph : GraphSpec
+        The graph.
+    arguments : mapping of str to str
+        Argument values (``force_model``).
+    params, overlay : str or Path, optional
+        The parameter YAML and the overlay (perception's ``model_path``).
+
+    Returns
+    -------
+    str
+        ``'argument'`` (``force_model:=``), ``'yaml'`` (the YAML or overlay sets
+        ``model_path``), ``'sim'`` (the sim graph's default: the simulated rig's model,
+        which the front ends then give as ``force_model``) or ``'none'``.
+    """
+    if arguments.get('force_model', ''):
+        return 'argument'
+    if any(_yaml_parameter(path, PERCEPTION.name, 'model_path') for path in (params, overlay)):
+        return 'yaml'
+    return 'sim' if graph.sim_force_model else 'none'
+
+
+def prepare_force_model(source: str, graph_name: str, say: Callable[[str], None]) -> str | None:
+    """Make the sim graph's default force model if it is not cached yet; warn on hardware
+    without a model.
+
+    Parameters
+    ----------
+    source : str
+        :func:`force_model_source` of the graph and its arguments.
+    graph_name : str
+        The graph (``hardware`` warns when there is no model).
+    say : callable
+        Takes each line to show (the one before a 6-13 s training comes before it).
+
+    Returns
+    -------
+    str or None
+        The model file to give perception (``force_model``) for source ``'sim'``; else None.
+    """
+    if source == 'sim':
+        from forte_bringup.sim_force_model import default_force_model_file, force_model_path
+
+        if not force_model_path().is_file():
+            say(f"making the simulated rig's force model (6-13 s, once; cached as "
+                f'{force_model_path()})')
+        path = str(default_force_model_file())
+        say(f"force model: the simulated rig's, {path}")
+        return path
+    if source == 'none' and graph_name == 'hardware':
+        say(f'WARNING: {NO_FORCE_MODEL_WARNING}')
+    return None

@@ -33,11 +33,10 @@ comes up without it (:func:`forte_bringup.graph_nodes.started_nodes`).
 The sim graph without a force model (no ``force_model:=``, no ``model_path`` in the YAML)
 gives perception the simulated rig's model, made on first use and cached
 (:func:`forte_bringup.sim_force_model.default_force_model_file`, 6-13 s once); the
-hardware graph without one logs :data:`forte_bringup.graph.NO_FORCE_MODEL_WARNING`.
+hardware graph without one logs :data:`forte_bringup.graph_nodes.NO_FORCE_MODEL_WARNING`.
 """
 from __future__ import annotations
 
-import launch.logging
 from launch import Action, LaunchContext, LaunchDescription
 from launch.actions import (
     DeclareLaunchArgument,
@@ -58,20 +57,18 @@ from lifecycle_msgs.msg import Transition
 
 from forte_bringup.graph import (
     GRAPHS,
-    NO_FORCE_MODEL_WARNING,
     RECORDER,
     TRANSITION_ATTEMPTS,
     TRANSITION_RETRY_DELAY,
     NodeSpec,
     argument_settings,
     clock_remappings,
-    force_model_source,
     graph_namespace,
     namespaced_parameter_file,
     overlay_nodes,
     recorder_topics,
 )
-from forte_bringup.graph_nodes import started_nodes
+from forte_bringup.graph_nodes import force_model_source, prepare_force_model, started_nodes
 
 
 def node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
@@ -211,24 +208,14 @@ def _force_model_actions(graph_name: str, arguments: dict[str, str], params_file
     Returns
     -------
     list of Action
-        The log line saying which model perception gets (or why none).
+        The log lines saying which model perception gets (or why none).
     """
-    graph = GRAPHS[graph_name]
-    source = force_model_source(graph, arguments, params_file, overlay or None)
-    if source == 'sim':
-        from forte_bringup.sim_force_model import default_force_model_file, force_model_path
-
-        made = not force_model_path().is_file()
-        if made:
-            launch.logging.get_logger('forte_bringup').info(
-                "making the simulated rig's force model (6-13 s, once; cached as "
-                f'{force_model_path()})')
-        arguments['force_model'] = str(default_force_model_file())
-        return [LogInfo(msg="force model: the simulated rig's "
-                            f'({"made now" if made else "cached"}): {arguments["force_model"]}')]
-    if source == 'none' and graph_name == 'hardware':
-        return [LogInfo(msg=f'WARNING: {NO_FORCE_MODEL_WARNING}')]
-    return []
+    source = force_model_source(GRAPHS[graph_name], arguments, params_file, overlay or None)
+    lines: list[str] = []
+    path = prepare_force_model(source, graph_name, lines.append)
+    if path is not None:
+        arguments['force_model'] = path
+    return [LogInfo(msg=line) for line in lines]
 
 
 def graph_launch_description(graph_name: str) -> LaunchDescription:

@@ -43,15 +43,25 @@ EXPECTED = {
 }
 
 
-#: Grasps whose outcome over DDS is a race between two honest outcomes (the controller agrees
-#: with the truth in both): (object, controller) -> the other outcome the graph may end in.
+#: The honest ends of a grasp that does not carry its object: the controller says so and the
+#: object is on the table (never lifted, or lifted and lost in the hold).
+HONEST_MISSES = (('NOT_CARRIED', 'RESTING'), ('DROPPED', 'RESTING'))
+
+#: Grasps whose outcome over DDS is a race between honest outcomes (the controller agrees with
+#: the truth in each): (object, controller) -> the other outcomes the graph may end in.
 #: FORTE catches the soda can of seed 13 after 14-17 tightenings (2-3 on slip flags, 12-14 on
 #: gross-slip evidence, closed loop with batches of 10, 20 and 40 samples) out of the 20 that
 #: max_tightening allows: over DDS, message timing changes how many fit before the lift
-#: ends (one CI run on a loaded machine: NOT_CARRIED, RESTING). The closed loop is
-#: deterministic and must give EXPECTED exactly.
+#: ends (CI runs on a loaded machine: NOT_CARRIED, RESTING once; lifted, then lost in the
+#: hold once, DROPPED, RESTING, 2026-11-26).
+#: The glass bottle of seed 0 is single-outcome in the closed loop (batches of 10-40
+#: samples), but over DDS FORTE's tightenings came too late for it in 1 of 3 quiet CI runs
+#: of 2026-11-26 (the bottle slid back onto the table: NOT_CARRIED, RESTING, the set-down
+#: probe saw the table take the load).
+#: Never a race: a crushed or broken object, or a controller that disagrees with the truth.
 GRAPH_RACES = {
-    ('soda_can', 'FORTE'): ('NOT_CARRIED', 'RESTING'),
+    ('soda_can', 'FORTE'): HONEST_MISSES,
+    ('glass_bottle', 'FORTE'): HONEST_MISSES,
 }
 
 
@@ -63,8 +73,8 @@ def mismatches(got: dict[tuple[str, str], tuple[str, str]], graph: bool = False)
     got : dict
         (object, controller) -> (outcome, object state).
     graph : bool
-        The grasps ran over DDS: a grasp of :data:`GRAPH_RACES` may also end in its race's
-        other honest outcome.
+        The grasps ran over DDS: a grasp of :data:`GRAPH_RACES` may also end in one of its
+        race's other honest outcomes.
 
     Returns
     -------
@@ -73,7 +83,7 @@ def mismatches(got: dict[tuple[str, str], tuple[str, str]], graph: bool = False)
     """
     return {key: (got.get(key), expected) for key, expected in EXPECTED.items()
             if got.get(key) != expected
-            and not (graph and got.get(key) == GRAPH_RACES.get(key))}
+            and not (graph and got.get(key) in GRAPH_RACES.get(key, ()))}
 
 
 def closed_loop_results(model) -> dict[tuple[str, str], tuple[str, str]]:

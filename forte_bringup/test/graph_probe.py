@@ -266,6 +266,18 @@ class Watcher(Node):
                 return True, None, feedback
             return True, result_future.result().result, feedback
         finally:
+            self.destroy_action_client(client)
+
+    def destroy_action_client(self, client: Any) -> None:
+        """Destroy an action client of this probe in its executor's thread.
+
+        Destroyed from the test's thread, the client's handle could be freed while the
+        spinning thread adds it to a wait set (RCLError "action client pointer is invalid",
+        which kills the spin thread); a probe whose executor no longer spins destroys it here.
+        """
+        try:
+            call_in_executor(self.executor, client.destroy, timeout=5.0)
+        except TimeoutError:
             client.destroy()
 
 

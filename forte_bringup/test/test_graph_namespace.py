@@ -24,16 +24,35 @@ from forte_bringup.bringup import Bringup, BringupError
 from forte_bringup.graph import (
     GRAPHS,
     check_prefix,
-    force_model_source,
     graph_namespace,
     namespaced_parameter_file,
     params_file,
 )
+from forte_bringup.graph_nodes import force_model_source
 from forte_bringup.robot_model import robot_state_publisher_available
 from forte_bringup.sim_force_model import force_model_path
 from forte_ros.contract import BASE_FRAME, JOINT_NAMES, joint_names, prefixed
 
 LAUNCH = Path(__file__).resolve().parents[1] / 'launch'
+
+
+def launch_actions(launch_file: str, **arguments: str) -> tuple[object, list]:
+    """The actions the launch file's OpaqueFunction returns for ``arguments`` (a context in
+    which the declared arguments were evaluated first, as ``ros2 launch`` does)."""
+    import launch
+    from launch.actions import DeclareLaunchArgument, OpaqueFunction
+    from launch.launch_description_sources import PythonLaunchDescriptionSource
+
+    context = launch.LaunchContext()
+    context.launch_configurations.update(arguments)
+    source = PythonLaunchDescriptionSource(str(LAUNCH / launch_file))
+    actions = []
+    for entity in source.get_launch_description(context).entities:
+        if isinstance(entity, DeclareLaunchArgument):
+            entity.execute(context)
+        elif isinstance(entity, OpaqueFunction):
+            actions += entity.execute(context) or []
+    return context, actions
 
 
 def option_values(command: list[str], option: str) -> list[str]:
@@ -132,23 +151,13 @@ def test_force_model_defaults_to_the_simulated_rig_in_the_sim_graph_only(tmp_pat
 
 
 def test_launch_files_build_the_same_namespaced_nodes():
-    launch = pytest.importorskip('launch', reason='launch / launch_ros need a ROS 2 install '
-                                 'or the launch kit (../shared/ros2-launch-kit)')
+    pytest.importorskip('launch', reason='launch / launch_ros need a ROS 2 install or the '
+                        'launch kit (../shared/ros2-launch-kit)')
     pytest.importorskip('launch_ros', reason='launch_ros needs a ROS 2 install or the kit')
-    from launch.actions import DeclareLaunchArgument, OpaqueFunction
-    from launch.launch_description_sources import PythonLaunchDescriptionSource
     from launch_ros.actions import Node
 
-    context = launch.LaunchContext()
-    context.launch_configurations.update({'namespace': 'right', 'prefix': 'right_',
-                                          'force_model': '/m.npz'})
-    source = PythonLaunchDescriptionSource(str(LAUNCH / 'sim.launch.py'))
-    actions = []
-    for entity in source.get_launch_description(context).entities:
-        if isinstance(entity, DeclareLaunchArgument):
-            entity.execute(context)
-        elif isinstance(entity, OpaqueFunction):
-            actions += entity.execute(context) or []
+    context, actions = launch_actions('sim.launch.py', namespace='right', prefix='right_',
+                                      force_model='/m.npz')
     nodes = [action for action in actions if isinstance(action, Node)]
     assert [node.node_executable for node in nodes] == [
         'sim_node', 'perception_node', 'grasp_controller_node', 'forte_visualization'] + (
@@ -167,23 +176,13 @@ def test_launch_files_build_the_same_namespaced_nodes():
 @pytest.mark.parametrize('mode', ['sim', 'hardware'])
 def test_force_calibration_launch_runs_in_a_namespace(mode: str):
     """calibrate_force.launch.py builds on the graph: namespace and prefix reach every node."""
-    launch = pytest.importorskip('launch', reason='launch / launch_ros need a ROS 2 install '
-                                 'or the launch kit (../shared/ros2-launch-kit)')
+    pytest.importorskip('launch', reason='launch / launch_ros need a ROS 2 install or the '
+                        'launch kit (../shared/ros2-launch-kit)')
     pytest.importorskip('launch_ros', reason='launch_ros needs a ROS 2 install or the kit')
-    from launch.actions import DeclareLaunchArgument, OpaqueFunction
-    from launch.launch_description_sources import PythonLaunchDescriptionSource
     from launch_ros.actions import Node
 
-    context = launch.LaunchContext()
-    context.launch_configurations.update({'mode': mode, 'namespace': 'right',
-                                          'prefix': 'right_', 'sensor_port': '/dev/null'})
-    source = PythonLaunchDescriptionSource(str(LAUNCH / 'calibrate_force.launch.py'))
-    actions = []
-    for entity in source.get_launch_description(context).entities:
-        if isinstance(entity, DeclareLaunchArgument):
-            entity.execute(context)
-        elif isinstance(entity, OpaqueFunction):
-            actions += entity.execute(context) or []
+    context, actions = launch_actions('calibrate_force.launch.py', mode=mode, namespace='right',
+                                      prefix='right_', sensor_port='/dev/null')
     nodes = {action.node_executable: action for action in actions if isinstance(action, Node)}
     expected = {'sim_node'} if mode == 'sim' else {'serial_sensor_node', 'gripper_driver_node'}
     assert set(nodes) == expected | {'forte_calibrate_force'}

@@ -122,7 +122,7 @@ def send(watcher: Watcher, action_type: Any, name: str, goal: Any,
         answer = result_future.result()
         return True, answer.status, answer.result, feedback
     finally:
-        client.destroy()
+        watcher.destroy_action_client(client)
 
 
 def parallel_goal(names: list[str], positions: list[float], velocity: list[float] = (),
