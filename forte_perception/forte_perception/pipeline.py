@@ -47,6 +47,7 @@ from forte_perception.force import ForceFeatures, ForceModel, window_lengths
 from forte_perception.median import MEDIAN_WINDOW, RunningMedian
 from forte_perception.slip.detector import SlipDetector, SlipParams
 from forte_perception.slip.mask import SlipMask
+from forte_perception.slip.state import SlippingParams, SlippingState
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, SAMPLE_RATE
 
 __all__ = ['PerceptionOutput', 'PerceptionPipeline', 'PipelineConfig', 'TareResult',
@@ -75,6 +76,8 @@ class PipelineConfig:
     force_rate : float
         Force estimates per second [Hz]; fs / force_rate must be an integer.
     slip : SlipParams
+    slipping : SlippingParams
+        The slipping state beside the slip event (:mod:`forte_perception.slip.state`).
     input_limit : float
         Largest valid ``|raw|`` [normalised units]; beyond it (or NaN/inf) a value is invalid.
     stuck_duration : float
@@ -89,6 +92,7 @@ class PipelineConfig:
     auto_tare: bool = True
     force_rate: float = 100.0
     slip: SlipParams = field(default_factory=SlipParams)
+    slipping: SlippingParams = field(default_factory=SlippingParams)
     input_limit: float = 1.0
     stuck_duration: float = 5.0
 
@@ -129,6 +133,7 @@ class PipelineConfig:
         if not (np.isfinite(self.stuck_duration) and self.stuck_duration > 0):
             raise ValueError(f'stuck_duration must be > 0 s, got {self.stuck_duration}')
         self.slip.validate(self.fs)
+        self.slipping.validate(self.fs, (self.slip.f_min, self.slip.f_max))
 
 
 @dataclass
@@ -158,6 +163,13 @@ class PerceptionOutput:
     psd_max_db : ndarray, shape (6,) [dB]
     finger_variance : ndarray, shape (2,) [dB^2]
     slip_updates : int
+    slipping : bool
+        Either finger is slipping after the chunk's last detector update.
+    finger_slipping : ndarray, shape (2,), bool
+        The slipping state per finger (left, right).
+    slip_excess : ndarray, shape (2,) [dB]
+        Per finger, mean short-window band power over the channels' quiet levels (NaN:
+        no usable channel with a level).
     filtered : ndarray, shape (6,)
         Latest median-filtered, tared sample (untared before the first tare).
     tared : bool
@@ -185,6 +197,9 @@ class PerceptionOutput:
     psd_max_db: np.ndarray = field(default_factory=lambda: np.full(N_CHANNELS, np.nan))
     finger_variance: np.ndarray = field(default_factory=lambda: np.zeros(2))
     slip_updates: int = 0
+    slipping: bool = False
+    finger_slipping: np.ndarray = field(default_factory=lambda: np.zeros(2, bool))
+    slip_excess: np.ndarray = field(default_factory=lambda: np.full(2, np.nan))
     filtered: np.ndarray = field(default_factory=lambda: np.full(N_CHANNELS, np.nan))
     tared: bool = False
     data_valid: bool = True
@@ -266,6 +281,8 @@ class PerceptionPipeline:
         self._force_features = ForceFeatures(c.fs)
         self.health = ChannelHealth(c.input_limit, c.stuck_samples)
         self._slip_mask = SlipMask(c.fs, c.slip, c.median_window)
+        self._slipping = SlippingState(c.fs, (c.slip.f_min, c.slip.f_max),
+                                       c.slip.hop / c.fs, c.slipping)
         self._median_reach = c.median_window
         self._contact_reach = c.contact_window + c.median_window - 1
         self._force_reach = max(window_lengths(c.fs)) + c.median_window - 1
@@ -297,6 +314,7 @@ class PerceptionPipeline:
         self._median.reset()
         self._slip.reset()
         self._slip_mask.reset()
+        self._slipping.reset()
         self._contact_history = np.zeros((0, N_CHANNELS))
         self._out.slip_active = False
 
@@ -377,6 +395,7 @@ class PerceptionPipeline:
         return PerceptionOutput(**{
             **vars(out), 'contact': out.contact.copy(), 'psd_max_db': out.psd_max_db.copy(),
             'finger_variance': out.finger_variance.copy(), 'filtered': out.filtered.copy(),
+            'finger_slipping': out.finger_slipping.copy(), 'slip_excess': out.slip_excess.copy(),
             'channel_health': flags})
 
     def _process_run(self, raw: np.ndarray, tare_raw: np.ndarray) -> bool:
@@ -412,21 +431,29 @@ class PerceptionPipeline:
         # slip on the filtered, untared signal
         res = self._slip.update(filtered)
         self._slip_mask.record(filtered, res)
+        power = self._slipping.feed(filtered, res.sample_index)
         if len(res):
             shift = first_index - (self._slip.samples_seen - n)
             active = bool(res.active[-1])
+            psd_ok = None
             if health.any_masked_since(first_index, self._slip_mask.decision_reach):
                 ends = res.sample_index + shift
                 usable = ~health.masked(ends, self._slip_mask.decision_reach)
                 psd_ok = ~health.masked(ends, self._slip_mask.psd_reach)
                 self._slip_mask.apply(res, usable, psd_ok)
                 active &= bool(usable[-1, :3].any() or usable[-1, 3:].any())
+            state = self._slipping.decide(power, res.slip, psd_ok)
+            out.finger_slipping = state.slipping[-1].copy()
+            out.slipping = bool(out.finger_slipping.any())
+            out.slip_excess = state.excess[-1].copy()
             out.psd_max_db = res.psd_max_db[-1].copy()
             out.finger_variance = res.finger_variance[-1].copy()
             out.slip_active = active
             out.slip_sample_index = int(res.sample_index[-1]) + shift
-        elif self._slip.updates == 0:
-            out.slip_active = False
+        elif self._slip.updates == 0:  # restarted, no update yet: nothing is known to slip
+            out.slip_active = out.slipping = False
+            out.finger_slipping = np.zeros(2, bool)
+            out.slip_excess = np.full(2, np.nan)
         slip_any = bool(res.slip.any())
         out.slip_updates += len(res)
         # force features at the force instants (absolute pipeline sample index)

@@ -1,0 +1,294 @@
+"""The slipping *state* beside the slip *event*: raised at detection, held while it slides.
+
+Derivation
+----------
+**Why a state.** Every detector mode fires on a *rise* of the 10-50 Hz band power (the
+paper's moving variance of a monotone rise, the CUSUM's accumulated excess): it marks the
+change into slip. An object that keeps sliding after the controller's first tightening keeps
+the band power high but no longer rising, so the event is not repeated; a controller that
+is told only about changes is never told that its tightening did not stop the slide. The
+state answers the question the controller needs: *is it still sliding now?*
+
+**What is measured.** Sliding excites the fingers' bending modes (14-38 Hz) for as long as
+it lasts: the band power stays above the channel's quiet level (about 20 dB on a real
+recording of an object sliding across a fingertip for 0.57 s). The detector's PSD window
+(N = 400 samples, 200 ms, Hann) is too slow to say when a slide has *ended*: a vibration
+that stopped ``tau`` seconds ago still fills the oldest ``0.2 - tau`` s of the window, whose
+Hann weight is ``int_0^(1 - tau/0.2) sin^4(pi u) du / (3/8)``, -3 dB at tau = 100 ms.
+A 20 dB slide would therefore be reported for about 170 ms after it stopped. The state uses
+its own, shorter estimate: per channel the filtered signal through a Butterworth band-pass
+(``order``, the detector's ``f_min``..``f_max``), squared, averaged over the last
+``window`` seconds (30 ms: 1.5 periods at 50 Hz, 0.3 at 10 Hz). In dB, with a quantisation
+floor added before the logarithm (uniform quantisation noise of variance q^2/12 has the
+fraction ``2 (f_max - f_min) / fs`` of its power in the band; ``floor_factor`` times that),
+so silence, a railed channel and sub-LSB noise give a finite level, never -inf.
+
+**Quiet level.** Per channel ``L_c``: the median of the band power over the updates of a
+block (``level_block`` s, fixed absolute update indices) at which the channel's finger was
+not slipping and no event was flagged, moving ``L_c`` by ``1 - exp(-level_block /
+level_tau)`` towards it; the first such block sets it. A channel without a level, or not
+usable at an update (a masked window), is left out of its finger's mean.
+
+**The state, per finger** (``e_f`` = mean over the finger's usable channels of
+``P_c - L_c``, its *excess* [dB]):
+
+- *raised* at an update whose slip event the detector flagged, for every finger with
+  ``e_f >= margin``: the event says "slip began", the excess says where. A finger below
+  the margin at the event is not raised: it is not vibrating (a false event on a quiet
+  hold raises nothing when the power did not rise);
+- *held* while ``e_f >= margin``;
+- *cleared* once ``e_f < margin`` has held for ``clear_time`` seconds (hysteresis against
+  the dips of a stick-slip train between releases). A finger with no usable channel keeps
+  its state (unknown is not "stopped").
+
+The state can only be raised by an event, so on quiet holds and distractors it is exactly as
+often raised as the detector has false events. A slide that outlasts a tightening keeps it
+raised; the controller tightens again while it persists (forte_control).
+
+Exactness: the band-pass keeps its state across calls and runs sample by sample, and each
+update's power is a reduction of its own window, so any chunking gives the batch result bit
+for bit.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+from scipy.signal import butter, sosfilt, sosfilt_zi
+
+from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, QUANTUM
+
+__all__ = ['SlippingParams', 'SlippingState', 'SlippingUpdate']
+
+
+@dataclass(frozen=True)
+class SlippingParams:
+    """Parameters of the slipping state (derivation in the module docstring).
+
+    Attributes
+    ----------
+    window : float
+        Band-power averaging window [s] (0.03).
+    order : int
+        Butterworth band-pass order (1: a second-order band-pass, which rings least).
+    margin : float
+        A finger is slipping while its mean excess over the quiet level is at least this
+        [dB] (6).
+    clear_time : float
+        ... and is cleared once the excess has stayed below ``margin`` this long [s] (0.02).
+    level_block : float
+        Quiet levels are updated once per block of this length [s] (0.2).
+    level_tau : float
+        Time constant of the quiet level [s] (5).
+    floor_factor : float
+        Band-power floor in units of the in-band quantisation noise power (4).
+    """
+
+    window: float = 0.03
+    order: int = 1
+    margin: float = 6.0
+    clear_time: float = 0.02
+    level_block: float = 0.2
+    level_tau: float = 5.0
+    floor_factor: float = 4.0
+
+    def validate(self, fs: float, band: tuple[float, float]) -> None:
+        """Raise ValueError with a reason if a value is unusable at ``fs`` for ``band``."""
+        for name in ('window', 'level_block', 'level_tau', 'floor_factor'):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f'slipping {name} must be positive and finite, got {value}')
+        if round(self.window * fs) < 2:
+            raise ValueError(f'slipping window {self.window} s is under 2 samples at {fs} Hz')
+        if int(self.order) != self.order or not 1 <= self.order <= 8:
+            raise ValueError(f'slipping order must be an integer in 1..8, got {self.order}')
+        if not math.isfinite(self.margin):
+            raise ValueError(f'slipping margin must be finite, got {self.margin}')
+        if not (math.isfinite(self.clear_time) and self.clear_time >= 0):
+            raise ValueError(f'slipping clear_time must be >= 0 s, got {self.clear_time}')
+        low, high = band
+        if not 0 < low < high < fs / 2:
+            raise ValueError(f'band {band} Hz must lie inside (0, {fs / 2}) Hz')
+
+
+@dataclass
+class SlippingUpdate:
+    """The state at m detector updates.
+
+    Attributes
+    ----------
+    slipping : ndarray (m, 2), bool
+        Per finger (left, right) after each update.
+    excess : ndarray (m, 2)
+        Mean excess of the finger's usable channels over their quiet levels [dB]; NaN when
+        the finger has none.
+    power_db : ndarray (m, 6)
+        Short-window band power per channel [dB re 1 normalised unit^2].
+    """
+
+    slipping: np.ndarray
+    excess: np.ndarray
+    power_db: np.ndarray
+
+
+class SlippingState:
+    """Streaming slipping state: feed filtered samples, then decide at the detector updates.
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate [Hz].
+    band : tuple of float
+        Band [Hz] (the detector's ``f_min``, ``f_max``).
+    update_interval : float
+        Time between detector updates [s] (``hop / fs``); sets the block and clear counts.
+    params : SlippingParams, optional
+    """
+
+    def __init__(self, fs: float, band: tuple[float, float], update_interval: float,
+                 params: SlippingParams | None = None) -> None:
+        self.params = params or SlippingParams()
+        self.params.validate(fs, band)
+        self.fs = float(fs)
+        self._sos = butter(int(self.params.order), band, btype='bandpass', fs=fs,
+                           output='sos')
+        self._window = int(round(self.params.window * fs))
+        self._floor = (self.params.floor_factor * QUANTUM ** 2 / 12.0
+                       * 2.0 * (band[1] - band[0]) / fs)
+        self._block = max(1, int(round(self.params.level_block / update_interval)))
+        self._clear = int(math.ceil(self.params.clear_time / update_interval - 1e-9))
+        self._beta = 1.0 - math.exp(-self.params.level_block / self.params.level_tau)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything (filter, levels, state)."""
+        self._zi: np.ndarray | None = None
+        self._squares = np.zeros((0, N_CHANNELS))  # the last window - 1 squared outputs
+        self._samples = 0
+        self._updates = 0
+        self._level = np.full(N_CHANNELS, np.nan)
+        self._slipping = np.zeros(2, bool)
+        self._below = np.zeros(2, int)
+        self._block_values: list[np.ndarray] = []
+
+    @property
+    def level(self) -> np.ndarray:
+        """Quiet level per channel [dB]; NaN before its first block."""
+        return self._level.copy()
+
+    @property
+    def slipping(self) -> np.ndarray:
+        """Current state per finger, (2,) bool."""
+        return self._slipping.copy()
+
+    def feed(self, filtered: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """Band-pass the new samples; the band power at the sample indices ``ends``.
+
+        Parameters
+        ----------
+        filtered : ndarray (n, 6)
+            The next filtered samples (finite; a pipeline substitutes invalid values).
+        ends : ndarray (m,)
+            Absolute sample indices (counted from the last reset) inside this chunk.
+
+        Returns
+        -------
+        ndarray (m, 6)
+            Mean square band-passed value over the ``window`` samples up to each end (fewer
+            at the start), plus the floor, in dB.
+        """
+        x = np.asarray(filtered, np.float64).reshape(-1, N_CHANNELS)
+        if not np.isfinite(x).all():
+            raise ValueError('slipping state input must be finite')
+        if self._zi is None and x.shape[0]:
+            self._zi = sosfilt_zi(self._sos)[:, :, None] * x[0][None, None, :]
+        first = self._samples
+        if x.shape[0]:
+            y, self._zi = sosfilt(self._sos, x, axis=0, zi=self._zi)
+        else:
+            y = x
+        ext = np.concatenate([self._squares, y * y])
+        self._samples += x.shape[0]
+        keep = self._window - 1
+        self._squares = ext[-keep:] if keep else ext[:0]
+        rel = np.asarray(ends, int) - (first - (ext.shape[0] - x.shape[0]))
+        power = np.empty((rel.size, N_CHANNELS))
+        full = rel >= self._window - 1
+        if full.any():  # each window gathered contiguously: its sum is its own reduction
+            view = sliding_window_view(ext, self._window, axis=0)  # (k, 6, window)
+            block = np.ascontiguousarray(view[rel[full] - self._window + 1])
+            power[full] = block.sum(axis=2) / self._window
+        for i in np.flatnonzero(~full):  # the first window - 1 samples after a reset
+            block = np.ascontiguousarray(ext[:rel[i] + 1].T)
+            power[i] = block.sum(axis=1) / (rel[i] + 1)
+        return 10.0 * np.log10(power + self._floor)
+
+    def decide(self, power_db: np.ndarray, events: np.ndarray,
+               usable: np.ndarray | None = None) -> SlippingUpdate:
+        """The state after each of m consecutive updates.
+
+        Parameters
+        ----------
+        power_db : ndarray (m, 6)
+            From :meth:`feed` at the updates' last samples [dB].
+        events : ndarray (m,), bool
+            The detector's slip event at each update.
+        usable : ndarray (m, 6), bool, optional
+            Channels whose window holds no invalid value (default all).
+        """
+        p = np.asarray(power_db, np.float64).reshape(-1, N_CHANNELS)
+        m = p.shape[0]
+        ok = np.isfinite(p) if usable is None else (np.asarray(usable, bool) & np.isfinite(p))
+        out = SlippingUpdate(np.zeros((m, 2), bool), np.full((m, 2), np.nan), p)
+        for i in range(m):
+            excess = self._excess(p[i], ok[i])
+            self._step(excess, bool(events[i]))
+            out.slipping[i] = self._slipping
+            out.excess[i] = excess
+            quiet = ~np.repeat(self._slipping, 3) & ok[i] & (not events[i])
+            self._block_values.append(np.where(quiet, p[i], np.nan))
+            self._updates += 1
+            if self._updates % self._block == 0:
+                self._close_block()
+        return out
+
+    def _excess(self, power: np.ndarray, ok: np.ndarray) -> np.ndarray:
+        z = np.where(ok, power - self._level, np.nan)  # NaN: unusable or no level yet
+        excess = np.full(2, np.nan)
+        for f, channels in enumerate(FINGER_CHANNELS):
+            values = z[list(channels)]
+            values = values[np.isfinite(values)]
+            if values.size:
+                excess[f] = values.mean()
+        return excess
+
+    def _step(self, excess: np.ndarray, event: bool) -> None:
+        margin = self.params.margin
+        for f in range(2):
+            if not np.isfinite(excess[f]):
+                continue  # unknown: keep the state
+            above = excess[f] >= margin
+            if above and (event or self._slipping[f]):
+                self._slipping[f] = True
+                self._below[f] = 0
+            elif self._slipping[f]:
+                self._below[f] += 1
+                if self._below[f] >= max(self._clear, 1):
+                    self._slipping[f] = False
+                    self._below[f] = 0
+
+    def _close_block(self) -> None:
+        values = np.array(self._block_values)
+        self._block_values = []
+        for c in range(N_CHANNELS):
+            column = values[:, c]
+            column = column[np.isfinite(column)]
+            if not column.size:
+                continue
+            median = float(np.median(column))
+            if np.isnan(self._level[c]):
+                self._level[c] = median
+            else:
+                self._level[c] += self._beta * (median - self._level[c])

@@ -1,0 +1,166 @@
+"""The slipping state (forte_perception.slip.state): known-answer inputs from its definition.
+
+Signals are in normalised units on the 11-bit grid (q = QUANTUM) at 2 kHz; detector updates
+every 4 samples. Tolerances are stated at each assertion.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
+from forte_perception.slip.state import SlippingParams, SlippingState
+from forte_ros.contract import QUANTUM
+
+FS = 2000.0
+HOP = 4
+BAND = (10.0, 50.0)
+
+
+def noisy(n: int, noise_lsb: float = 1.0, seed: int = 0) -> np.ndarray:
+    """Quantised white noise on six channels, (n, 6)."""
+    rng = np.random.default_rng(seed)
+    return np.round(rng.normal(0.0, noise_lsb, (n, 6))) * QUANTUM
+
+
+def with_burst(x: np.ndarray, start: int, stop: int, amplitude_lsb: float,
+               frequency: float = 25.0, channels=(0, 1, 2)) -> np.ndarray:
+    """``x`` plus a sinusoid of ``amplitude_lsb`` on ``channels`` during [start, stop)."""
+    y = x.copy()
+    t = np.arange(start, stop) / FS
+    for c in channels:
+        y[start:stop, c] += np.round(amplitude_lsb * np.sin(2 * np.pi * frequency * t)) * QUANTUM
+    return y
+
+
+def run(x: np.ndarray, event_samples=(), params: SlippingParams | None = None,
+        usable: np.ndarray | None = None):
+    """Feed ``x`` in one call; events at the first update at or after each sample."""
+    state = SlippingState(FS, BAND, HOP / FS, params)
+    ends = np.arange(HOP - 1, x.shape[0], HOP)
+    events = np.zeros(ends.size, bool)
+    for sample in event_samples:
+        events[np.searchsorted(ends, sample)] = True
+    power = state.feed(x, ends)
+    return ends, state.decide(power, events, usable), state
+
+
+def test_band_power_of_a_sine_in_the_band_is_its_mean_square():
+    # 25 Hz is in the middle of the band (gain 1 within 0.1 dB): power = A^2 / 2
+    amplitude = 50 * QUANTUM
+    t = np.arange(4000) / FS
+    x = np.tile((amplitude * np.sin(2 * np.pi * 25 * t))[:, None], (1, 6))
+    state = SlippingState(FS, BAND, HOP / FS)
+    power = state.feed(x, np.array([3999]))
+    assert power[0] == pytest.approx(np.full(6, 10 * np.log10(amplitude ** 2 / 2)), abs=0.5)
+
+
+def test_out_of_band_vibration_and_silence_stay_at_the_floor():
+    t = np.arange(6000) / FS
+    hum = np.tile((20 * QUANTUM * np.sin(2 * np.pi * 300 * t))[:, None], (1, 6))
+    silence = np.zeros((6000, 6))
+    state = SlippingState(FS, BAND, HOP / FS)
+    quiet = state.feed(silence, np.array([5999]))[0]
+    assert np.isfinite(quiet).all()  # the floor, never -inf
+    state.reset()
+    humming = state.feed(hum, np.array([5999]))[0]
+    # 300 Hz through a second-order 10-50 Hz band-pass: about -22 dB of 20 LSB amplitude
+    in_band = 10 * np.log10((20 * QUANTUM) ** 2 / 2)  # the same sine inside the band
+    assert (humming - quiet < 30).all() and (humming < in_band - 15).all()
+
+
+def test_raised_at_the_event_held_while_sliding_cleared_soon_after():
+    on, off = 3000, 5000  # 1 s of 10 LSB vibration at 25 Hz on the left finger
+    x = with_burst(noisy(8000), on, off, 10.0)
+    ends, update, _ = run(x, event_samples=[on + 120])
+    left = update.slipping[:, 0]
+    raised = ends[left]
+    assert raised.min() == ends[np.searchsorted(ends, on + 120)]  # at the event
+    during = (ends >= raised.min()) & (ends < off)
+    assert left[during].all()  # held the whole slide
+    assert 0 < raised.max() - off <= 0.1 * FS  # cleared within 100 ms of the end
+    assert not update.slipping[:, 1].any()  # the quiet right finger is never raised
+
+
+def test_no_event_no_state_and_a_quiet_event_raises_nothing():
+    x = with_burst(noisy(8000), 3000, 5000, 10.0)
+    _, update, _ = run(x)
+    assert not update.slipping.any()  # vibration alone is not an event
+    _, update, _ = run(noisy(8000), event_samples=[4000])
+    assert not update.slipping.any()  # an event on a quiet hold: no excess, nothing raised
+
+
+def test_quiet_level_tracks_each_channel():
+    x = noisy(8000, noise_lsb=4.0)
+    x[:, 3:] = noisy(8000, noise_lsb=1.0, seed=1)[:, 3:]
+    _, update, state = run(x)
+    # in-band power = variance x 2 x ENBW / fs (second-order band-pass: ENBW = pi / 2 x 40 Hz)
+    # + floor (4 x q^2 / 12 x 80 / 2000); rounded normal noise has variance sigma^2 + 1 / 12
+    fraction, floor = 2 * np.pi / 2 * 40 / FS, 4 / 12 * 80 / FS
+    expected = 10 * np.log10((16.08 * fraction + floor) / (1.08 * fraction + floor))
+    level = state.level
+    assert level[:3].mean() - level[3:].mean() == pytest.approx(expected, abs=1.5)
+    assert np.nanmax(np.abs(update.excess[-1000:])) < 6.0  # quiet: inside the margin
+
+
+def test_unusable_channels_are_left_out_and_a_blind_finger_keeps_its_state():
+    on, off = 3000, 5000
+    x = with_burst(noisy(8000), on, off, 10.0)
+    ends = np.arange(HOP - 1, 8000, HOP)
+    usable = np.ones((ends.size, 6), bool)
+    blind = (ends > 4000) & (ends < 6000)
+    usable[blind, :3] = False
+    _, update, _ = run(x, event_samples=[on + 120], usable=usable)
+    assert np.isnan(update.excess[blind, 0]).all()
+    assert update.slipping[blind, 0].all()  # unknown is not "stopped"
+    assert not update.slipping[ends > 6500, 0].any()  # seen quiet again: cleared
+
+
+def test_any_chunking_gives_the_batch_result_bit_for_bit():
+    x = with_burst(noisy(6000), 2500, 4000, 30.0)
+    ends, batch, _ = run(x, event_samples=[2600])
+    events = np.isin(ends, ends[np.searchsorted(ends, 2600)])
+    rng = np.random.default_rng(3)
+    state = SlippingState(FS, BAND, HOP / FS)
+    start, excess, slipping = 0, [], []
+    while start < x.shape[0]:
+        stop = min(x.shape[0], start + int(rng.integers(1, 60)))
+        mine = (ends >= start) & (ends < stop)
+        power = state.feed(x[start:stop], ends[mine])
+        update = state.decide(power, events[mine])
+        excess.append(update.excess)
+        slipping.append(update.slipping)
+        start = stop
+    assert np.array_equal(np.concatenate(excess), batch.excess, equal_nan=True)
+    assert np.array_equal(np.concatenate(slipping), batch.slipping)
+
+
+def test_bad_values_are_refused_with_a_reason():
+    with pytest.raises(ValueError, match='window'):
+        SlippingState(FS, BAND, HOP / FS, SlippingParams(window=0.0))
+    with pytest.raises(ValueError, match='order'):
+        SlippingState(FS, BAND, HOP / FS, SlippingParams(order=0))
+    with pytest.raises(ValueError, match='band'):
+        SlippingState(FS, (10.0, 1500.0), HOP / FS)
+    state = SlippingState(FS, BAND, HOP / FS)
+    with pytest.raises(ValueError, match='finite'):
+        state.feed(np.full((10, 6), np.nan), np.array([9]))
+
+
+def test_pipeline_reports_the_state_of_its_last_update():
+    # a sustained 30 LSB, 25 Hz slide after the tare: the robust detector flags its onset,
+    # the state stays raised while it lasts and is cleared after it
+    on, off = 6000, 8000
+    x = with_burst(noisy(12000, noise_lsb=1.0), on, off, 30.0)
+    pipeline = PerceptionPipeline(PipelineConfig())
+    states = [pipeline.process(x[i:i + 20]) for i in range(0, x.shape[0], 20)]
+    index = np.array([s.sample_index for s in states])
+    slipping = np.array([s.slipping for s in states])
+    events = np.array([s.slip for s in states])
+    assert events[(index > on) & (index < on + 400)].any()
+    first = index[slipping].min()
+    assert first < on + 400
+    assert slipping[(index >= first) & (index < off)].mean() >= 0.9
+    assert not slipping[index > off + 0.1 * FS].any()
+    assert not slipping[index < on].any()
+    assert all(s.finger_slipping[0] == s.slipping for s in states)
