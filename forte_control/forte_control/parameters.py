@@ -97,6 +97,8 @@ CONTROLLER_PARAMETERS: dict[str, ParameterSpec] = _field_table((
     _spec('slip_increment', float, 'rad', 'servo tightening per slip event (paper: 0.88 deg)',
           MIN_ANGLE_STEP, HARD_MAX_SLIP_INCREMENT),
     _spec('slip_refractory', float, 's', 'minimum time between two slip tightenings', 0.0, 10.0),
+    _spec('slipping_interval', float, 's', 'while the slipping state persists after a slip '
+          'tightening, tighten again this often (within max_tightening; 0: never)', 0.0, 10.0),
     _spec('slip_speed', float, 'rad/s', 'servo profile velocity of a slip tightening',
           *SERVO_SPEED),
     # drop detection

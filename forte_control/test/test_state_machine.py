@@ -43,6 +43,7 @@ class Rig:
         self.contact = (False, False)
         self.slip = False
         self.slip_active = True
+        self.slipping = False
         self.data_valid = True
         self.filtered: tuple[float, ...] | None = None
         self.perception_age = 0.0
@@ -58,8 +59,8 @@ class Rig:
             perception = PerceptionInput(
                 stamp=self.now - self.perception_age, force=self.force,
                 force_valid=self.force_valid, contact=self.contact, slip=self.slip,
-                slip_active=self.slip_active, data_valid=self.data_valid,
-                filtered=self.filtered)
+                slip_active=self.slip_active, slipping=self.slipping,
+                data_valid=self.data_valid, filtered=self.filtered)
         joint = None
         if self.send_joint:
             joint = JointInput(stamp=self.now - self.joint_age, theta=self.theta,

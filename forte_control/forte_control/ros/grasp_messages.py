@@ -93,6 +93,7 @@ def feedback_msg(out: ControlOutputs, perception: PerceptionInput | None) -> Gra
     feedback.state = int(out.state)
     feedback.estimated_force = finite_or_zero(out.estimated_force)
     feedback.slip = bool(perception.slip) if perception is not None else False
+    feedback.slipping = bool(perception.slipping) if perception is not None else False
     if perception is not None:
         feedback.finger_variance = [float(v) for v in perception.finger_variance]
     feedback.servo_command = _servo_position(out)
@@ -110,4 +111,5 @@ def result_msg(outcome: Outcome, message: str, duration: float,
         result.lift_height = float(out.lift_height)
         result.slip_events = int(out.slip_events)
         result.tightening = float(out.tightening)
+        result.slip_duration = float(out.slip_duration)
     return result

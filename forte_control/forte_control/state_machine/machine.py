@@ -302,4 +302,5 @@ class GraspStateMachine(GraspPhases):
             finished=finished,
             message=self._message,
             gross_slip_events=grasp.gross_slip_events if grasp is not None else 0,
+            slip_duration=grasp.slip_duration if grasp is not None else 0.0,
         )

@@ -184,6 +184,8 @@ class GraspPhases:
         grasp = self._grasp
         assert grasp is not None
         state = self._state
+        if valid and perception is not None:
+            self._count_slipping(perception)
         reacted = self._tighten_on_slip(now, perception, valid)
         if self._state == GraspState.FAULT:  # the tightening cap
             return False, True
@@ -228,29 +230,53 @@ class GraspPhases:
         self._message = f'gross slip {grasp.gross_slip_events} ({evidence}): tightened to ' \
                         f'{position:.4f} rad'
 
+    def _count_slipping(self, perception: PerceptionInput) -> None:
+        """Add the time since the previous perception state to the slip duration if that
+        state was slipping (sample times, so message delays do not count)."""
+        grasp = self._grasp
+        assert grasp is not None
+        if grasp.slipping_stamp is not None and perception.stamp > grasp.slipping_stamp:
+            grasp.slip_duration += perception.stamp - grasp.slipping_stamp
+        if perception.slipping:
+            if grasp.slipping_stamp is None or perception.stamp > grasp.slipping_stamp:
+                grasp.slipping_stamp = perception.stamp
+        else:
+            grasp.slipping_stamp = None
+
     def _tighten_on_slip(self, now: float, perception: PerceptionInput | None,
                          valid: bool) -> bool:
         """FORTE: a new slip flag outside the refractory time tightens by slip_increment
-        (a fault if that would exceed max_tightening); True if it tightened."""
+        (a fault if that would exceed max_tightening); so does a slipping state that
+        persists ``slipping_interval`` after the last tightening (never past
+        max_tightening, no fault: the grasp goes on at the cap). True if it tightened."""
         grasp = self._grasp
         assert grasp is not None
         if not (self._controller == Controller.FORTE and valid and perception is not None
-                and perception.slip and perception.slip_active
-                and perception.stamp > grasp.last_slip_stamp):
+                and perception.slip_active):
             return False
         p = grasp.params
-        grasp.last_slip_stamp = perception.stamp
-        if now - grasp.last_tightening_time < p.slip_refractory:
-            return False
-        if grasp.tightening + p.slip_increment > p.max_tightening + 1e-12:
-            self._fault(FaultFlag.TIGHTENING_LIMIT, 'slip tightening would exceed the '
-                        f'cap {p.max_tightening:.4f} rad')
+        if perception.slip and perception.stamp > grasp.last_slip_stamp:
+            grasp.last_slip_stamp = perception.stamp
+            if now - grasp.last_tightening_time < p.slip_refractory:
+                return False
+            if grasp.tightening + p.slip_increment > p.max_tightening + 1e-12:
+                self._fault(FaultFlag.TIGHTENING_LIMIT, 'slip tightening would exceed the '
+                            f'cap {p.max_tightening:.4f} rad')
+                return False
+            reason = 'slip'
+        elif (perception.slipping and p.slipping_interval > 0.0
+              and grasp.tightening > 0.0  # after a tightening: it did not stop the slide
+              and now - grasp.last_tightening_time >= max(p.slipping_interval,
+                                                          p.slip_refractory)
+              and grasp.tightening + p.slip_increment <= p.max_tightening + 1e-12):
+            reason = 'still slipping'
+        else:
             return False
         assert self._servo is not None
         position = max(p.min_angle, self._servo.position - p.slip_increment)
         grasp.slip_events += 1
         self._tighten_to(now, position)
-        self._message = f'slip {grasp.slip_events}: tightened to {position:.4f} rad'
+        self._message = f'{reason} {grasp.slip_events}: tightened to {position:.4f} rad'
         return True
 
     def _tighten_to(self, now: float, position: float) -> None:

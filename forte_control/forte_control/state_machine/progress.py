@@ -40,6 +40,8 @@ class GraspProgress:
     at_min_since: float | None = None
     last_tightening_time: float = -math.inf
     last_slip_stamp: float = -math.inf
+    slipping_stamp: float | None = None  # stamp of the last perception seen slipping [s]
+    slip_duration: float = 0.0         # time perception reported slipping [s]
     drop: DropDetector | None = None
     lift: LiftMonitor | None = None
     open_levels: OpenGripperLevels | None = None  # the lift check's zero, from the open gripper

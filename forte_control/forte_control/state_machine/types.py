@@ -111,6 +111,7 @@ class PerceptionInput:
     contact: tuple[bool, bool] = (False, False)  # (LEFT, RIGHT)
     slip: bool = False
     slip_active: bool = False
+    slipping: bool = False                      # slipping state (held while it slides)
     data_valid: bool = True
     filtered: tuple[float, ...] | None = None   # (6,) tared filtered channels, optional
     finger_variance: tuple[float, float] = (0.0, 0.0)  # [dB^2], reported in feedback
@@ -123,7 +124,8 @@ def perception_input(state: Any, stamp: float, slip: bool | None = None) -> Perc
     ----------
     state : forte_msgs.msg.TactileState or forte_perception.pipeline.PerceptionOutput
         Anything with TactileState's field names (``force``, ``force_valid``, ``contact``,
-        ``slip``, ``slip_active``, ``data_valid``, ``filtered``, ``finger_variance``).
+        ``slip``, ``slip_active``, ``data_valid``, ``filtered``, ``finger_variance``;
+        ``slipping`` if it has it, else False).
     stamp : float
         Sample time of the state's latest sample [s].
     slip : bool, optional
@@ -134,7 +136,8 @@ def perception_input(state: Any, stamp: float, slip: bool | None = None) -> Perc
         stamp=stamp, force=float(state.force), force_valid=bool(state.force_valid),
         contact=(bool(state.contact[0]), bool(state.contact[1])),
         slip=bool(state.slip) if slip is None else bool(slip),
-        slip_active=bool(state.slip_active), data_valid=bool(state.data_valid),
+        slip_active=bool(state.slip_active), slipping=bool(getattr(state, 'slipping', False)),
+        data_valid=bool(state.data_valid),
         filtered=tuple(float(value) for value in state.filtered),
         finger_variance=(float(state.finger_variance[0]), float(state.finger_variance[1])))
 
@@ -188,4 +191,5 @@ class ControlOutputs:
     finished: bool                 # the grasp reached its outcome in this step
     message: str
     gross_slip_events: int = 0     # tightenings on gross-slip evidence in this grasp [count]
+    slip_duration: float = 0.0     # time perception reported slipping in this grasp [s]
 

@@ -411,6 +411,9 @@ class PerceptionNode(Node):
         msg.psd_max_db = np.asarray(out.psd_max_db, dtype=np.float64)
         msg.finger_variance = np.asarray(out.finger_variance, dtype=np.float64)
         msg.slip_updates = int(out.slip_updates)
+        msg.slipping = bool(out.slipping)
+        msg.finger_slipping = [bool(f) for f in out.finger_slipping]
+        msg.slip_excess = np.asarray(out.slip_excess, dtype=np.float64)
         msg.filtered = np.asarray(out.filtered, dtype=np.float64)
         msg.tared = bool(out.tared)
         msg.data_valid = bool(out.data_valid if valid is None else valid)

@@ -1,0 +1,88 @@
+"""FORTE keeps tightening while the slipping state persists after a tightening (issue 26).
+
+The synthetic rig of test_state_machine: perception updates every 10 ms (DT), the slip event
+and the slipping state set by the test. Defaults: slipping_interval 0.2 s, slip_refractory
+0.05 s, slip_increment 0.88 deg, max_tightening 20 increments.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+from test_state_machine import DT, Rig
+
+from forte_control.state_machine import (
+    PAPER_SLIP_INCREMENT,
+    Controller,
+    ControllerParams,
+    GraspState,
+)
+
+
+def tighten_times(rig: Rig, seconds: float) -> list[float]:
+    """Times [s, from now] at which the machine tightened during ``seconds``."""
+    start, times = rig.now, []
+    while rig.now < start + seconds - 1e-9:
+        out = rig.tick()
+        if out.slip_reacted:
+            times.append(round(rig.now - start, 6))
+    return times
+
+
+def test_a_slide_that_outlasts_the_tightening_is_tightened_again_at_the_interval():
+    rig = Rig()
+    held = rig.to_lifting().servo.position
+    rig.slip, rig.slipping = True, True
+    assert rig.tick().slip_reacted  # the event: first tightening
+    times = tighten_times(rig, 0.65)  # still slipping
+    assert times == pytest.approx([0.2, 0.4, 0.6], abs=DT / 2)
+    rig.slipping = False  # the slide stopped
+    assert tighten_times(rig, 1.0) == []
+    out = rig.history[-1]
+    assert out.slip_events == 4
+    assert out.servo.position == pytest.approx(held - 4 * PAPER_SLIP_INCREMENT)
+
+
+def test_slipping_without_a_tightening_first_does_nothing():
+    # the state is raised by an event; alone (e.g. a late message) it does not start tightening
+    rig = Rig()
+    rig.to_lifting()
+    rig.slipping = True
+    assert tighten_times(rig, 1.0) == []
+
+
+def test_persisting_slip_stops_at_the_cap_without_a_fault():
+    params = replace(ControllerParams(), max_tightening=3 * PAPER_SLIP_INCREMENT)
+    rig = Rig(params)
+    rig.to_lifting()
+    rig.slip, rig.slipping = True, True
+    rig.tick()
+    tighten_times(rig, 2.0)
+    out = rig.history[-1]
+    assert out.slip_events == 3 and out.tightening == pytest.approx(3 * PAPER_SLIP_INCREMENT)
+    assert out.state != GraspState.FAULT
+
+
+def test_interval_zero_turns_it_off_and_no_slip_never_reacts():
+    rig = Rig(replace(ControllerParams(), slipping_interval=0.0))
+    rig.to_lifting()
+    rig.slip, rig.slipping = True, True
+    rig.tick()
+    assert tighten_times(rig, 1.0) == []
+    rig = Rig()
+    rig.to_lifting(controller=Controller.NO_SLIP)
+    rig.slip, rig.slipping = True, True
+    assert tighten_times(rig, 1.0) == []
+
+
+def test_slip_duration_counts_sample_time_while_slipping():
+    rig = Rig()
+    rig.to_lifting()
+    rig.slipping = True
+    for _ in range(50):  # 0.5 s slipping
+        rig.tick()
+    rig.slipping = False
+    for _ in range(30):
+        rig.tick()
+    # the time from the first slipping state to the first state that is not: 50 updates
+    assert rig.history[-1].slip_duration == pytest.approx(50 * DT, abs=1e-9)
