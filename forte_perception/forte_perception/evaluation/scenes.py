@@ -309,10 +309,9 @@ def _low_frequency(rng, profile, n) -> _Draft:
     return draft
 
 
-def _high_frequency(rng, profile, n) -> _Draft:
-    draft = _Draft(np.zeros((n, 6)), arm=np.zeros(n))
-    t0 = int(rng.uniform(1.5, 3.0) * FS)
-    stop = t0 + int(rng.uniform(5.0, 8.0) * FS)
+def _add_hum(draft: _Draft, rng, n: int, t0: int, stop: int) -> dict:
+    """Add motor hum (62-150 Hz + 0.3 second harmonic, 1-30 LSB, 20 % modulation) on
+    [t0, stop) with 50 ms edges; its parameters."""
     env = _edges(n, t0, stop, 0.05)
     t = np.arange(n) / FS
     f0, amp, fm = rng.uniform(62.0, 150.0), _loguniform(rng, 1.0, 30.0), rng.uniform(0.5, 2.0)
@@ -322,35 +321,86 @@ def _high_frequency(rng, profile, n) -> _Draft:
     hum = (np.sin(2 * np.pi * f0 * t + phase[0]) + 0.3 * np.sin(4 * np.pi * f0 * t + phase[1]))
     hum *= amp / 1.3 * env * (1.0 + 0.2 * np.sin(2 * np.pi * fm * t))
     draft.signal += hum[:, None] * gains[None, :]
+    return {'frequency_hz': f0, 'amplitude_lsb': amp, 'modulation_hz': fm,
+            'start_s': t0 / FS, 'stop_s': stop / FS}
+
+
+def _high_frequency(rng, profile, n) -> _Draft:
+    draft = _Draft(np.zeros((n, 6)), arm=np.zeros(n))
+    t0 = int(rng.uniform(1.5, 3.0) * FS)
+    stop = t0 + int(rng.uniform(5.0, 8.0) * FS)
+    draft.params.update(_add_hum(draft, rng, n, t0, stop))
     draft.arm[t0:stop] = LIFT_VELOCITY
-    draft.params.update(frequency_hz=f0, amplitude_lsb=amp, modulation_hz=fm,
-                        start_s=t0 / FS, stop_s=stop / FS)
     return draft
 
 
-def _stick_slip(rng, profile, n, strength: tuple[float, float], both: bool) -> _Draft:
+def _burst(rng, profile, n: int, onset: int, duration: float,
+           strength: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, int, dict]:
+    """One stick-slip burst: ringing and static shear (n,) [LSB], last release, parameters."""
+    rate, amp = rng.uniform(10.0, 50.0), _loguniform(rng, *strength)
+    resonance = profile.resonance_hz * rng.uniform(0.95, 1.05)
+    ringing, static, last = burst_component(n, onset, duration, rate, resonance,
+                                            profile.damping, amp, rng)
+    return ringing, static, last, {'onset_s': onset / FS, 'duration_s': duration,
+                                   'rate_hz': rate, 'resonance_hz': resonance,
+                                   'strength_lsb': amp}
+
+
+def _add_burst(draft: _Draft, profile, burst: tuple, weights: np.ndarray,
+               fingers: int) -> None:
+    """Add a burst of :func:`_burst` on the fingers' ``weights`` (2,) and its event."""
+    ringing, static, last, params = burst
+    draft.signal += (_both(profile.pattern('vibration'), ringing, weights)
+                     + _both(profile.pattern('shear'), static, weights))
+    draft.events.append((int(round(params['onset_s'] * FS)), last + int(0.1 * FS), fingers,
+                         'stick_slip', params['strength_lsb']))
+
+
+def _one_finger(rng) -> tuple[int, np.ndarray]:
+    """A drawn finger (0 left, 1 right) and its unit weights (2,)."""
+    finger = int(rng.integers(0, 2))
+    weights = np.zeros(2)
+    weights[finger] = 1.0
+    return finger, weights
+
+
+def _stick_slip(rng, profile, n, strength: tuple[float, float], both: bool,
+                durations: tuple[float, float] = (0.1, 0.6),
+                centres: tuple[float, ...] = (2.5, 6.0, 9.5), hum: bool = False) -> _Draft:
     draft = _Draft(np.zeros((n, 6)), arm=np.full(n, LIFT_VELOCITY))
-    vib, shear = profile.pattern('vibration'), profile.pattern('shear')
     bursts = []
-    for centre in (2.5, 6.0, 9.5):
+    for centre in centres:
         onset = int((centre + rng.uniform(-0.4, 0.4)) * FS)
-        duration, rate = rng.uniform(0.1, 0.6), rng.uniform(10.0, 50.0)
-        amp = _loguniform(rng, *strength)
-        resonance = profile.resonance_hz * rng.uniform(0.95, 1.05)
-        ringing, static, last = burst_component(n, onset, duration, rate, resonance,
-                                                profile.damping, amp, rng)
-        finger = int(rng.integers(0, 2))
-        weights = np.zeros(2)
-        weights[finger] = 1.0
+        burst = _burst(rng, profile, n, onset, rng.uniform(*durations), strength)
+        finger, weights = _one_finger(rng)
         if both:
             weights[1 - finger] = profile.coupling
-        draft.signal += _both(vib, ringing, weights) + _both(shear, static, weights)
         fingers = FINGER_BOTH if both else (FINGER_LEFT, FINGER_RIGHT)[finger]
-        end = last + int(0.1 * FS)
-        draft.events.append((onset, end, fingers, 'stick_slip', amp))
-        bursts.append({'onset_s': onset / FS, 'duration_s': duration, 'rate_hz': rate,
-                       'resonance_hz': resonance, 'strength_lsb': amp, 'finger': finger})
+        _add_burst(draft, profile, burst, weights, fingers)
+        bursts.append({**burst[3], 'finger': finger})
     draft.params['bursts'] = bursts
+    if hum:  # the arm's motor hums through the whole lift
+        draft.params['hum'] = _add_hum(draft, rng, n, 0, n)
+    return draft
+
+
+def _leading_gross(rng, profile, n) -> _Draft:
+    """Stick-slip under the leading finger while the trailing finger slides smoothly."""
+    draft = _Draft(np.zeros((n, 6)), arm=np.full(n, LIFT_VELOCITY))
+    k = np.arange(n)
+    episodes = []
+    for centre in (2.5, 6.0, 9.5):
+        onset = int((centre + rng.uniform(-0.4, 0.4)) * FS)
+        duration = rng.uniform(0.2, 1.0)
+        burst = _burst(rng, profile, n, onset, duration, (3.0, 30.0))
+        finger, weights = _one_finger(rng)
+        _add_burst(draft, profile, burst, weights, (FINGER_LEFT, FINGER_RIGHT)[finger])
+        decay = _loguniform(rng, 5.0, 50.0)  # the trailing finger's gross slip [LSB]
+        s = 0.5 * (1.0 - np.cos(np.pi * np.clip((k - onset) / (duration * FS), 0.0, 1.0)))
+        trailing = 1.0 - weights
+        draft.signal -= _both(profile.pattern('shear'), decay * s, trailing)
+        episodes.append({**burst[3], 'finger': finger, 'trailing_decay_lsb': decay})
+    draft.params['bursts'] = episodes
     return draft
 
 
@@ -396,6 +446,11 @@ FAMILIES: dict[str, tuple[Callable, float, tuple[float, float]]] = {
     'stick_slip_30_100lsb': _family(_stick_slip, 12.0, strength=(30.0, 100.0), both=True),
     'leading_finger': _family(_stick_slip, 12.0, strength=(2.0, 100.0), both=False),
     'gross_smooth': _family(_gross_smooth, 13.0),
+    # issue 26: what the paper describes and the first set lacked
+    'sustained_sliding': _family(_stick_slip, 12.0, strength=(3.0, 30.0), both=True,
+                                 durations=(0.5, 2.0), centres=(2.5, 7.0)),
+    'leading_gross': _family(_leading_gross, 12.0),
+    'stick_slip_hum': _family(_stick_slip, 12.0, strength=(3.0, 30.0), both=True, hum=True),
 }
 
 

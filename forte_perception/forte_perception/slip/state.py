@@ -84,6 +84,15 @@ class SlippingParams:
         Time constant of the quiet level [s] (5).
     floor_factor : float
         Band-power floor in units of the in-band quantisation noise power (4).
+    decay_db : float
+        Also cleared when the excess has fallen this far below its maximum over the last
+        ``decay_window`` (a ringing dying out, no new release) [dB]; 0: off.
+    decay_window : float
+        [s] (0.1).
+    rearm_time : float
+        For this long after a clear, a rise of the excess by ``decay_db`` over its lowest
+        value since the clear, to at least ``margin``, raises the state again (a new release
+        of the same slide) [s] (0.3).
     """
 
     window: float = 0.03
@@ -93,6 +102,9 @@ class SlippingParams:
     level_block: float = 0.2
     level_tau: float = 5.0
     floor_factor: float = 4.0
+    decay_db: float = 0.0
+    decay_window: float = 0.1
+    rearm_time: float = 0.3
 
     def validate(self, fs: float, band: tuple[float, float]) -> None:
         """Raise ValueError with a reason if a value is unusable at ``fs`` for ``band``."""
@@ -106,6 +118,10 @@ class SlippingParams:
             raise ValueError(f'slipping order must be an integer in 1..8, got {self.order}')
         if not math.isfinite(self.margin):
             raise ValueError(f'slipping margin must be finite, got {self.margin}')
+        for name in ('decay_db', 'decay_window', 'rearm_time'):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f'slipping {name} must be >= 0 and finite, got {value}')
         if not (math.isfinite(self.clear_time) and self.clear_time >= 0):
             raise ValueError(f'slipping clear_time must be >= 0 s, got {self.clear_time}')
         low, high = band
@@ -160,6 +176,8 @@ class SlippingState:
         self._block = max(1, int(round(self.params.level_block / update_interval)))
         self._clear = int(math.ceil(self.params.clear_time / update_interval - 1e-9))
         self._beta = 1.0 - math.exp(-self.params.level_block / self.params.level_tau)
+        self._decay_updates = max(1, int(round(self.params.decay_window / update_interval)))
+        self._rearm_updates = int(round(self.params.rearm_time / update_interval))
         self.reset()
 
     def reset(self) -> None:
@@ -171,6 +189,9 @@ class SlippingState:
         self._level = np.full(N_CHANNELS, np.nan)
         self._slipping = np.zeros(2, bool)
         self._below = np.zeros(2, int)
+        self._recent: list[list[float]] = [[], []]  # excess over the decay window [dB]
+        self._armed = np.zeros(2, int)  # updates left in which a rise re-raises the state
+        self._floor_since = np.full(2, np.inf)  # lowest excess since the clear [dB]
         self._block_values: list[np.ndarray] = []
 
     @property
@@ -265,19 +286,39 @@ class SlippingState:
         return excess
 
     def _step(self, excess: np.ndarray, event: bool) -> None:
-        margin = self.params.margin
+        p = self.params
         for f in range(2):
             if not np.isfinite(excess[f]):
                 continue  # unknown: keep the state
-            above = excess[f] >= margin
-            if above and (event or self._slipping[f]):
-                self._slipping[f] = True
+            value = float(excess[f])
+            recent = self._recent[f]
+            recent.append(value)
+            if len(recent) > self._decay_updates:
+                recent.pop(0)
+            above = value >= p.margin
+            if not self._slipping[f]:
+                self._armed[f] -= 1
+                self._floor_since[f] = min(self._floor_since[f], value)
+                rearm = (self._armed[f] > 0 and p.decay_db > 0
+                         and value >= self._floor_since[f] + p.decay_db)
+                if above and (event or rearm):
+                    self._raise(f)
+                continue
+            decayed = p.decay_db > 0 and value < max(recent) - p.decay_db
+            if above and not decayed:
                 self._below[f] = 0
-            elif self._slipping[f]:
-                self._below[f] += 1
-                if self._below[f] >= max(self._clear, 1):
-                    self._slipping[f] = False
-                    self._below[f] = 0
+                continue
+            self._below[f] += 1
+            if decayed or self._below[f] >= max(self._clear, 1):
+                self._slipping[f] = False
+                self._below[f] = 0
+                self._armed[f] = self._rearm_updates
+                self._floor_since[f] = value
+
+    def _raise(self, finger: int) -> None:
+        self._slipping[finger] = True
+        self._below[finger] = 0
+        self._recent[finger] = self._recent[finger][-1:]
 
     def _close_block(self) -> None:
         values = np.array(self._block_values)
