@@ -11,7 +11,9 @@ reported angle), never the labels. Modes: ``'paper'``, the paper's detector exac
 :data:`SERVO_HOLD` s after a change of the commanded servo angle (:func:`servo_gate`: uses
 the command, which the detector does not have, so a controller-side option); ``'cusum'``,
 issue 26's candidate: a CUSUM on the robust mode's band power relative to each channel's
-measured quiet level (:func:`cusum_mode`, :mod:`forte_perception.slip.cusum`).
+measured quiet level (:func:`cusum_mode`, :mod:`forte_perception.slip.cusum`);
+``'sequential'``, the same CUSUM on the slipping state's fast (30 ms) band power with a
+level-shift and a hum veto (:func:`sequential_mode`, :mod:`forte_perception.slip.sequential`).
 
 :func:`run_mode` runs a mode over scenes ``repeats`` times; the detections of the first run
 are scored (:mod:`forte_perception.evaluation.slip_metrics`), the CPU time is
@@ -42,10 +44,11 @@ from forte_perception.median import MEDIAN_WINDOW, running_median
 from forte_perception.slip.cusum import BandPowerCusum, CusumParams
 from forte_perception.slip.detector import SlipParams, slip_features
 from forte_perception.slip.robust import level_shift_veto
+from forte_perception.slip.sequential import SequentialDetector, SequentialParams
 
 __all__ = ['MODES', 'SERVO_HOLD', 'Detection', 'SensorInput', 'cusum_mode', 'markdown',
            'paper_mode', 'prepare', 'report', 'robust_mode', 'robust_servo_gate_mode', 'run_mode',
-           'servo_gate']
+           'sequential_mode', 'servo_gate']
 
 
 @dataclass
@@ -146,9 +149,17 @@ def robust_servo_gate_mode(inp: SensorInput) -> Detection:
 
 
 #: Detector modes by name.
+def sequential_mode(inp: SensorInput, params: SequentialParams | None = None) -> Detection:
+    """Issue 26's sequential detector on the fast band power
+    (:mod:`forte_perception.slip.sequential`); flags are its slip events."""
+    detector = SequentialDetector(inp.fs, SlipParams().hop, params=params)
+    ends, slip, _ = detector.update(inp.filtered)
+    return Detection(ends, slip, detector.hop)
+
+
 MODES: dict[str, Callable[[SensorInput], Detection]] = {
     'paper': paper_mode, 'robust': robust_mode, 'robust_servo_gate': robust_servo_gate_mode,
-    'cusum': cusum_mode}
+    'cusum': cusum_mode, 'sequential': sequential_mode}
 
 
 def prepare(scenes: list[SlipScene], median_window: int = MEDIAN_WINDOW) -> list[SensorInput]:

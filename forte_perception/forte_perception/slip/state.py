@@ -142,11 +142,14 @@ class SlippingUpdate:
         the finger has none.
     power_db : ndarray (m, 6)
         Short-window band power per channel [dB re 1 normalised unit^2].
+    level : ndarray (m, 6)
+        The quiet level in effect at each update [dB]; NaN before the channel's first.
     """
 
     slipping: np.ndarray
     excess: np.ndarray
     power_db: np.ndarray
+    level: np.ndarray
 
 
 class SlippingState:
@@ -262,8 +265,10 @@ class SlippingState:
         p = np.asarray(power_db, np.float64).reshape(-1, N_CHANNELS)
         m = p.shape[0]
         ok = np.isfinite(p) if usable is None else (np.asarray(usable, bool) & np.isfinite(p))
-        out = SlippingUpdate(np.zeros((m, 2), bool), np.full((m, 2), np.nan), p)
+        out = SlippingUpdate(np.zeros((m, 2), bool), np.full((m, 2), np.nan), p,
+                             np.empty((m, N_CHANNELS)))
         for i in range(m):
+            out.level[i] = self._level
             excess = self._excess(p[i], ok[i])
             self._step(excess, bool(events[i]))
             out.slipping[i] = self._slipping

@@ -1,0 +1,98 @@
+"""The sequential detector (forte_perception.slip.sequential): known-answer inputs.
+
+Quantised signals (q = QUANTUM) at 2 kHz, 1 LSB white noise, updates every 4 samples. The
+scene starts with 3 s of quiet (the quiet levels need one 0.2 s block; the vetoes 0.5 s of
+history).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from forte_perception.slip.sequential import SequentialDetector, SequentialParams
+from forte_ros.contract import QUANTUM
+
+FS = 2000.0
+ONSET = 6000  # 3 s
+
+
+def scene(n: int = 16000, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return rng.normal(0.0, 1.0, (n, 6)) + 40.0  # LSB, an offset like a held grip
+
+
+def sine(n: int, start: int, stop: int, frequency: float, amplitude: float) -> np.ndarray:
+    t = np.arange(n) / FS
+    out = amplitude * np.sin(2 * np.pi * frequency * t)
+    out[:start] = 0.0
+    out[stop:] = 0.0
+    return out
+
+
+def detect(lsb: np.ndarray, chunk: int | None = None):
+    x = np.round(lsb) * QUANTUM
+    detector = SequentialDetector(FS, 4)
+    if chunk is None:
+        ends, slip, state = detector.update(x)
+        return ends, slip, state.slipping.any(axis=1), detector
+    parts = [detector.update(x[i:i + chunk]) for i in range(0, x.shape[0], chunk)]
+    return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
+            np.concatenate([p[2].slipping.any(axis=1) for p in parts]), detector)
+
+
+def test_quiet_hold_never_alarms():
+    _, slip, slipping, _ = detect(scene(40000))
+    assert not slip.any() and not slipping.any()
+
+
+@pytest.mark.parametrize('amplitude', [5.0, 30.0])
+def test_stick_slip_vibration_alarms_within_40_ms(amplitude):
+    x = scene()
+    x[:, :3] += sine(x.shape[0], ONSET, ONSET + 2000, 25.0, amplitude)[:, None]
+    x[:, 3:] += 0.5 * sine(x.shape[0], ONSET, ONSET + 2000, 25.0, amplitude)[:, None]
+    ends, slip, slipping, _ = detect(x)
+    alarms = ends[slip]
+    assert alarms.size and ONSET <= alarms[0] <= ONSET + 0.04 * FS
+    assert slipping[(ends > alarms[0]) & (ends < ONSET + 2000)].mean() >= 0.9
+
+
+def test_the_leading_finger_alone_alarms():
+    x = scene()
+    x[:, 3:] += sine(x.shape[0], ONSET, ONSET + 1000, 20.0, 8.0)[:, None]  # right only
+    ends, slip, _, _ = detect(x)
+    assert slip.any() and ONSET <= ends[slip][0] <= ONSET + 0.05 * FS
+
+
+def test_a_closing_step_is_vetoed():
+    x = scene()
+    ramp = np.clip((np.arange(x.shape[0]) - ONSET) / 40.0, 0.0, 1.0) * 300.0  # 300 LSB, 20 ms
+    x += ramp[:, None]
+    ends, slip, _, detector = detect(x)
+    assert not slip.any()
+    assert detector.vetoed >= 1  # the step did alarm the CUSUM: the veto took it
+
+
+def test_hum_switching_on_is_vetoed():
+    x = scene()
+    # 70 Hz motor hum of 20 LSB switched on with 50 ms raised-cosine edges (a motor speeding up)
+    edge = 0.5 - 0.5 * np.cos(np.pi * np.clip((np.arange(x.shape[0]) - ONSET) / 100.0, 0, 1))
+    x += (edge * sine(x.shape[0], ONSET, x.shape[0], 70.0, 20.0))[:, None]
+    _, slip, _, detector = detect(x)
+    assert not slip.any() and detector.vetoed >= 1
+
+
+def test_any_chunking_gives_the_same_events_and_state():
+    x = scene()
+    x[:, :3] += sine(x.shape[0], ONSET, ONSET + 1500, 30.0, 10.0)[:, None]
+    batch = detect(x)
+    for chunk in (1 + 6, 20, 333):
+        ends, slip, slipping, _ = detect(x, chunk)
+        assert np.array_equal(ends, batch[0])
+        assert np.array_equal(slip, batch[1]) and np.array_equal(slipping, batch[2])
+
+
+def test_bad_parameters_are_refused():
+    with pytest.raises(ValueError, match='high_band'):
+        SequentialDetector(FS, 4, params=SequentialParams(high_band=(60.0, 1500.0)))
+    with pytest.raises(ValueError, match='shift_length'):
+        SequentialDetector(FS, 4, params=SequentialParams(shift_length=0))
