@@ -77,6 +77,7 @@ class FakeWorld(Node):
         self.publish_perception = True
         self.publish_joints = True
         self.slip_next = False
+        self.slipping_until = -1.0  # sim time [s] until which perception reports slipping
         self.servo_log: list[tuple[float, ServoCommand]] = []   # (simulated time, command)
         self.arm_log: list[tuple[float, TwistStamped]] = []
         self.states: list[GraspStateMsg] = []
@@ -153,6 +154,8 @@ class FakeWorld(Node):
         msg.contact = [sensed, sensed]
         msg.slip = self.slip_next
         self.slip_next = False
+        msg.slipping = self.sim_time < self.slipping_until
+        msg.finger_slipping = [msg.slipping, msg.slipping]
         msg.slip_active = True
         msg.data_valid = True
         msg.tared = True
@@ -304,6 +307,28 @@ def test_slip_tightens_from_the_tactile_callback(harness):
     result = harness.result(handle).result
     assert result.outcome == Outcome.LIFTED and result.slip_events == 1
     assert result.tightening == pytest.approx(PAPER_SLIP_INCREMENT)
+
+
+def test_a_slide_that_persists_is_tightened_again_and_its_duration_reported(harness):
+    # slip, then 0.5 s of slipping state: the first tightening on the event, one more per
+    # slipping_interval (0.2 s) while it lasts; the result's slip_duration is the 0.5 s
+    harness.controller.set_parameters([Parameter('lift_distance', value=0.04)])
+    feedback = []
+    handle = harness.send(feedback)
+    assert handle.accepted
+    assert harness.spin_until(lambda: harness.world.state == GraspState.LIFTING)
+    harness.spin_for(0.1)
+    before = harness.world.servo_log[-1][1].position
+    harness.world.slip_next = True
+    harness.world.slipping_until = harness.world.sim_time + 0.5
+    result = harness.result(handle).result
+    assert result.outcome == Outcome.LIFTED, result.message
+    assert result.slip_events == 3  # the event, then at 0.2 s and 0.4 s of slipping
+    assert result.tightening == pytest.approx(3 * PAPER_SLIP_INCREMENT)
+    assert min(msg.position for _, msg in harness.world.servo_log) == pytest.approx(
+        before - 3 * PAPER_SLIP_INCREMENT, abs=1e-9)
+    assert result.slip_duration == pytest.approx(0.5, abs=0.011)  # one update: 10 ms
+    assert any(f.slipping for f in feedback)
 
 
 def test_cancel_stops_the_arm_immediately(harness):

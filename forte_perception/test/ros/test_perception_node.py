@@ -181,8 +181,12 @@ def test_online_equals_offline(harness, mode, model_file):
             (out.slip, out.slip_active, out.force_valid, out.tared)
         assert list(state.contact) == list(out.contact)
         assert state.slip_updates == out.slip_updates
+        assert (state.slipping, list(state.finger_slipping)) == \
+            (out.slipping, list(out.finger_slipping))
+        np.testing.assert_array_equal(state.slip_excess, out.slip_excess)
         assert state.data_valid and state.input_gaps == 0
     assert any(s.slip for s in harness.states) and any(s.contact[0] for s in harness.states)
+    assert any(s.slipping for s in harness.states)  # the bursts raise the slipping state
     assert sum(s.force_valid for s in harness.states) > 300
     last = harness.states[-1]
     assert last.header.frame_id == 'forte_base_link'
