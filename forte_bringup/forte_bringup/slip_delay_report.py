@@ -131,24 +131,20 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the exit code."""
-    args = _parser().parse_args(argv)
-    started = time.perf_counter()
-    scenes, info = build_set(args.cache_dir)
-    scenes = [s for s in scenes if s.split == args.split
-              and not (args.signal_only and s.source == 'sim')]
+def delay_report(scenes, modes) -> tuple[str, dict, dict]:
+    """The curves of ``modes`` on ``scenes`` and the slipping state at each default.
+
+    Returns the markdown text, ``mode -> list of OperatingPoint`` and ``mode -> slipping
+    scores`` (:func:`forte_perception.evaluation.slipping.summarise_slipping`).
+    """
     inputs = prepare(scenes)
-    print(f'[slip_delay_report] set {info["hash"]}, {args.split}: {len(scenes)} scenes, '
-          f'{sum(s.seconds for s in scenes) / 60:.1f} min', flush=True)
     curves, tables, states = {}, [], {}
-    for mode in args.modes:
+    for mode in modes:
         chosen = settings(mode)
         curves[mode] = delay_false_alarm_curve(scenes, chosen, inputs)
         tables.append(markdown_curve(curves[mode], mode))
         default = next(d for s, d in chosen if DEFAULTS[mode] in s.values())
         states[mode] = slipping_summary(scenes, inputs, default)
-        print(tables[-1] + '\n', flush=True)
     state_table = ['| mode (default setting) | events | held mean | held >= 90 % | clear p50 '
                    '/ p90 [ms] | cleared <= 100 ms | raised outside slip |',
                    '|---|---|---|---|---|---|---|']
@@ -157,8 +153,20 @@ def main(argv: list[str] | None = None) -> int:
             f'| {mode} | {s["events"]:.0f} | {s["held_mean"]:.2f} | {s["held_90"]:.2f} | '
             f'{s["clear_p50_ms"]:.0f} / {s["clear_p90_ms"]:.0f} | {s["clear_100ms"]:.2f} | '
             f'{s["raised_outside"]:.0f} |')
-    text = '\n\n'.join(tables + ['\n'.join(state_table)]) + '\n'
-    print(text.split('\n\n')[-1], flush=True)
+    return '\n\n'.join(tables + ['\n'.join(state_table)]) + '\n', curves, states
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit code."""
+    args = _parser().parse_args(argv)
+    started = time.perf_counter()
+    scenes, info = build_set(args.cache_dir)
+    scenes = [s for s in scenes if s.split == args.split
+              and not (args.signal_only and s.source == 'sim')]
+    print(f'[slip_delay_report] set {info["hash"]}, {args.split}: {len(scenes)} scenes, '
+          f'{sum(s.seconds for s in scenes) / 60:.1f} min', flush=True)
+    text, curves, states = delay_report(scenes, args.modes)
+    print(text, flush=True)
     args.output.mkdir(parents=True, exist_ok=True)
     (args.output / 'delay_false_alarms.md').write_text(text)
     (args.output / 'delay_false_alarms.json').write_text(json.dumps(
