@@ -40,9 +40,10 @@ DEFAULT_CONTROLLERS = ('FORTE', 'NO_SLIP', 'ON_OFF')
 #: Scene seed per object (placement, material spread, noise), the same for every controller.
 #: Chosen so each scripted grasp has a single physical outcome: in the closed loop it is the
 #: same for perception updates of 10, 20, 30 and 40 samples. (Seed 0 of the soda can is a
-#: race for FORTE between stick-slip and tightenings: carried or not with the batch size.)
-#: Other objects get seed 0.
-DEMO_SEEDS = {'raspberry': 0, 'soda_can': 13, 'glass_bottle': 0}
+#: race for FORTE between stick-slip and tightenings: carried or not with the batch size;
+#: seed 13, used next, needed all 20 allowed tightenings at some batch sizes: seed 7 needs
+#: 12-15.) Other objects get seed 0.
+DEMO_SEEDS = {'raspberry': 0, 'soda_can': 7, 'glass_bottle': 0}
 
 
 def say(text: str) -> None:
