@@ -7,7 +7,7 @@ new vibration enters that window where the Hann weight is near zero, so a slip b
 visible only when it has filled a quarter of the window, 40-50 ms after its onset, and a
 rule on 15 monotone rises adds 30 ms more. The slipping state
 (:mod:`forte_perception.slip.state`) already computes a fast estimate of the same band
-power: a second-order 10-50 Hz band-pass, squared, averaged over 30 ms, in dB over each
+power: a second-order 10-50 Hz band-pass, squared, averaged over 50 ms, in dB over each
 channel's own quiet level (the *excess* ``z``). A change of its mean from 0 to ``D`` dB is
 what a slip does.
 

@@ -18,7 +18,7 @@ Hann weight is ``int_0^(1 - tau/0.2) sin^4(pi u) du / (3/8)``, -3 dB at tau = 10
 A 20 dB slide would therefore be reported for about 170 ms after it stopped. The state uses
 its own, shorter estimate: per channel the filtered signal through a Butterworth band-pass
 (``order``, the detector's ``f_min``..``f_max``), squared, averaged over the last
-``window`` seconds (30 ms: 1.5 periods at 50 Hz, 0.3 at 10 Hz). In dB, with a quantisation
+``window`` seconds (50 ms: 2.5 periods at 50 Hz, half a period at 10 Hz). In dB, with a quantisation
 floor added before the logarithm (uniform quantisation noise of variance q^2/12 has the
 fraction ``2 (f_max - f_min) / fs`` of its power in the band; ``floor_factor`` times that),
 so silence, a railed channel and sub-LSB noise give a finite level, never -inf.
@@ -70,14 +70,14 @@ class SlippingParams:
     Attributes
     ----------
     window : float
-        Band-power averaging window [s] (0.03).
+        Band-power averaging window [s] (0.05).
     order : int
         Butterworth band-pass order (1: a second-order band-pass, which rings least).
     margin : float
         A finger is slipping while its mean excess over the quiet level is at least this
-        [dB] (6).
+        [dB] (4).
     clear_time : float
-        ... and is cleared once the excess has stayed below ``margin`` this long [s] (0.02).
+        ... and is cleared once the excess has stayed below ``margin`` this long [s] (0.05).
     level_block : float
         Quiet levels are updated once per block of this length [s] (0.2).
     level_tau : float
@@ -95,10 +95,10 @@ class SlippingParams:
         of the same slide) [s] (0.3).
     """
 
-    window: float = 0.03
+    window: float = 0.05
     order: int = 1
-    margin: float = 6.0
-    clear_time: float = 0.02
+    margin: float = 4.0
+    clear_time: float = 0.05
     level_block: float = 0.2
     level_tau: float = 5.0
     floor_factor: float = 4.0
