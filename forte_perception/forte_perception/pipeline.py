@@ -47,6 +47,7 @@ from forte_perception.force import ForceFeatures, ForceModel, window_lengths
 from forte_perception.median import MEDIAN_WINDOW, RunningMedian
 from forte_perception.slip.detector import SlipDetector, SlipParams
 from forte_perception.slip.mask import SlipMask
+from forte_perception.slip.sequential import SequentialDetector
 from forte_perception.slip.state import SlippingParams, SlippingState
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, SAMPLE_RATE
 
@@ -277,12 +278,15 @@ class PerceptionPipeline:
         """Restart everything: filters, detector, means, baseline, counters."""
         c = self.config
         self._median = RunningMedian(c.median_window, N_CHANNELS)
-        self._slip = SlipDetector(c.fs, c.slip)
+        self._slip = SlipDetector(c.fs, c.slip.features)
         self._force_features = ForceFeatures(c.fs)
         self.health = ChannelHealth(c.input_limit, c.stuck_samples)
-        self._slip_mask = SlipMask(c.fs, c.slip, c.median_window)
+        self._slip_mask = SlipMask(c.fs, c.slip.features, c.median_window)
         self._slipping = SlippingState(c.fs, (c.slip.f_min, c.slip.f_max),
                                        c.slip.hop / c.fs, c.slipping)
+        self._sequential = (SequentialDetector(c.fs, c.slip.hop, (c.slip.f_min, c.slip.f_max),
+                                               state=c.slipping)
+                            if c.slip.mode == 'sequential' else None)
         self._median_reach = c.median_window
         self._contact_reach = c.contact_window + c.median_window - 1
         self._force_reach = max(window_lengths(c.fs)) + c.median_window - 1
@@ -315,6 +319,8 @@ class PerceptionPipeline:
         self._slip.reset()
         self._slip_mask.reset()
         self._slipping.reset()
+        if self._sequential is not None:
+            self._sequential.reset()
         self._contact_history = np.zeros((0, N_CHANNELS))
         self._out.slip_active = False
 
@@ -431,18 +437,24 @@ class PerceptionPipeline:
         # slip on the filtered, untared signal
         res = self._slip.update(filtered)
         self._slip_mask.record(filtered, res)
-        power = self._slipping.feed(filtered, res.sample_index)
+        shift = first_index - (self._slip.samples_seen - n)
+        psd_ok = None
+        if len(res) and health.any_masked_since(first_index, self._slip_mask.decision_reach):
+            psd_ok = ~health.masked(res.sample_index + shift, self._slip_mask.psd_reach)
+        if self._sequential is not None:  # its events replace the PSD rule's flags
+            _, events, state = self._sequential.update(filtered, psd_ok, res.sample_index)
+        else:
+            power = self._slipping.feed(filtered, res.sample_index)
         if len(res):
-            shift = first_index - (self._slip.samples_seen - n)
             active = bool(res.active[-1])
-            psd_ok = None
-            if health.any_masked_since(first_index, self._slip_mask.decision_reach):
-                ends = res.sample_index + shift
-                usable = ~health.masked(ends, self._slip_mask.decision_reach)
-                psd_ok = ~health.masked(ends, self._slip_mask.psd_reach)
+            if psd_ok is not None:
+                usable = ~health.masked(res.sample_index + shift, self._slip_mask.decision_reach)
                 self._slip_mask.apply(res, usable, psd_ok)
                 active &= bool(usable[-1, :3].any() or usable[-1, 3:].any())
-            state = self._slipping.decide(power, res.slip, psd_ok)
+            if self._sequential is not None:
+                res.slip[:] = events
+            else:
+                state = self._slipping.decide(power, res.slip, psd_ok)
             out.finger_slipping = state.slipping[-1].copy()
             out.slipping = bool(out.finger_slipping.any())
             out.slip_excess = state.excess[-1].copy()

@@ -116,8 +116,9 @@ PARAMETERS: dict[str, ParameterSpec] = parameter_table([
     ParameterSpec('slip_threshold', float, 'slip threshold T', 'dB^2', -1e3, 1e6,
                   field='slip.threshold'),
     ParameterSpec('slip_mode', str, "slip detector mode: 'robust' (quantisation floor, "
-                  "level-shift veto, one finger alone; wins on the held-out slip set) or "
-                  "'paper' (the paper's algorithm bit for bit)", field='slip.mode'),
+                  "level-shift veto, one finger alone; wins on the held-out slip set), "
+                  "'paper' (the paper's algorithm bit for bit) or 'sequential' (issue 26's "
+                  'candidate: CUSUM on the fast band power)', field='slip.mode'),
     ParameterSpec('slip_single_threshold', float, "robust mode: a finger may flag slip alone "
                   'when its group average exceeds this (at least slip_threshold)', 'dB^2',
                   -1e3, 1e6, field='slip.single_threshold'),

@@ -7,7 +7,7 @@ the band and the check of the input frames.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -17,7 +17,7 @@ __all__ = ['MODES', 'RECOMMENDED_MODE', 'NonFiniteInputError',
            'SlipFeatures', 'SlipParams', 'bins_in_band', 'check_frames']
 
 #: Detector modes (:attr:`SlipParams.mode`).
-MODES = ('paper', 'robust')
+MODES = ('paper', 'robust', 'sequential')
 #: The mode that wins on the held-out part of the slip evaluation set (docs/perception.md):
 #: the default of :attr:`SlipParams.mode`, hence of the perception node, the closed loop and
 #: every tool; ``mode='paper'`` selects the paper's algorithm bit for bit.
@@ -106,6 +106,13 @@ class SlipParams:
     def robust(self) -> bool:
         """True in the robust mode."""
         return self.mode == 'robust'
+
+    @property
+    def features(self) -> SlipParams:
+        """The parameters of the PSD features and flags the detector computes: these, or
+        the robust mode's for the ``'sequential'`` mode, whose slip events come from
+        :mod:`forte_perception.slip.sequential` instead."""
+        return replace(self, mode='robust') if self.mode == 'sequential' else self
 
     def psd_floor(self, fs: float) -> float:
         """What is added to the PSD before the logarithm [PSD units]: ``eps`` in the paper

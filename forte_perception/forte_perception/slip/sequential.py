@@ -130,9 +130,13 @@ class SequentialDetector:
         self._history = np.zeros((0, N_CHANNELS))  # the last 2 shift_length samples
         self.vetoed = 0
 
-    def update(self, filtered: np.ndarray, usable: np.ndarray | None = None
+    def update(self, filtered: np.ndarray, usable: np.ndarray | None = None,
+               ends: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, SlippingUpdate]:
-        """Consume filtered samples (n, 6); updates at every ``hop``-th sample.
+        """Consume filtered samples (n, 6); updates at every ``hop``-th sample, or at the
+        sample indices ``ends`` (since the reset, inside this chunk) when given (the PSD
+        detector's updates, in the pipeline); ``usable`` (m, 6): channels without an invalid
+        value in reach.
 
         Returns
         -------
@@ -145,7 +149,9 @@ class SequentialDetector:
         """
         x = np.asarray(filtered, np.float64).reshape(-1, N_CHANNELS)
         first = self._samples
-        ends = np.arange(first + (-first - 1) % self.hop, first + x.shape[0], self.hop)
+        if ends is None:
+            ends = np.arange(first + (-first - 1) % self.hop, first + x.shape[0], self.hop)
+        ends = np.asarray(ends, np.int64)
         low = self.state.feed(x, ends)
         high = self._high.feed(x, ends)
         if usable is not None:
