@@ -7,9 +7,9 @@ new vibration enters that window where the Hann weight is near zero, so a slip b
 visible only when it has filled a quarter of the window, 40-50 ms after its onset, and a
 rule on 15 monotone rises adds 30 ms more. The slipping state
 (:mod:`forte_perception.slip.state`) already computes a fast estimate of the same band
-power: a second-order 10-50 Hz band-pass, squared, averaged over 50 ms, in dB over each
-channel's own quiet level (the *excess* ``z``). A change of its mean from 0 to ``D`` dB is
-what a slip does.
+power: a second-order 10-50 Hz band-pass, squared, averaged (here over ``window``, 30 ms)
+in dB over each channel's own quiet level (the *excess* ``z``). A change of its mean from
+0 to ``D`` dB is what a slip does.
 
 **Statistic.** Page's CUSUM per finger on the mean excess of its usable channels,
 ``S_f = max(0, S_f + (zbar_f - k) dt)``, alarm at ``S_f > h``
@@ -62,6 +62,9 @@ class SequentialParams:
     ----------
     cusum : CusumParams
         Drift k [dB] and threshold h [dB s] of the CUSUM on the fast excess (8, 0.05).
+    window : float
+        Averaging window of the fast band power the CUSUM reads [s] (0.03; the slipping
+        state keeps its own).
     veto_ratio : float
         Level-shift veto: shift against the vibration's peak-to-peak amplitude (0.1).
     shift_length : int
@@ -74,6 +77,7 @@ class SequentialParams:
 
     cusum: CusumParams = field(default_factory=lambda: CusumParams(drift=8.0, threshold=0.05,
                                                                     clear_time=0.05))
+    window: float = 0.03
     veto_ratio: float = 0.1
     shift_length: int = 200
     high_band: tuple[float, float] = (60.0, 250.0)
@@ -117,13 +121,16 @@ class SequentialDetector:
         self.fs, self.hop = float(fs), int(hop)
         dt = self.hop / self.fs
         self.state = SlippingState(fs, band, dt, state)
-        self._high = SlippingState(fs, self.params.high_band, dt, state)
+        fast = SlippingParams(window=self.params.window)
+        self._fast = SlippingState(fs, band, dt, fast)
+        self._high = SlippingState(fs, self.params.high_band, dt, fast)
         self._cusum = BandPowerCusum(dt, self.params.cusum)
         self.reset()
 
     def reset(self) -> None:
         """Forget everything."""
         self.state.reset()
+        self._fast.reset()
         self._high.reset()
         self._cusum.reset()
         self._samples = 0
@@ -152,8 +159,9 @@ class SequentialDetector:
         if ends is None:
             ends = np.arange(first + (-first - 1) % self.hop, first + x.shape[0], self.hop)
         ends = np.asarray(ends, np.int64)
-        low = self.state.feed(x, ends)
+        low = self._fast.feed(x, ends)
         high = self._high.feed(x, ends)
+        power = self.state.feed(x, ends)
         if usable is not None:
             low = np.where(usable, low, np.nan)
         ext = np.concatenate([self._history, x])
@@ -166,7 +174,7 @@ class SequentialDetector:
 
         result = self._cusum.update(low, veto)
         self.vetoed += result.vetoed
-        state = self.state.decide(low, result.slip, usable)
+        state = self.state.decide(power, result.slip, usable)
         self._samples += x.shape[0]
         self._history = ext[-2 * int(self.params.shift_length):]
         return ends, result.slip, state
