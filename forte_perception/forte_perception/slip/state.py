@@ -84,15 +84,6 @@ class SlippingParams:
         Time constant of the quiet level [s] (5).
     floor_factor : float
         Band-power floor in units of the in-band quantisation noise power (4).
-    decay_db : float
-        Also cleared when the excess has fallen this far below its maximum over the last
-        ``decay_window`` (a ringing dying out, no new release) [dB]; 0: off.
-    decay_window : float
-        [s] (0.1).
-    rearm_time : float
-        For this long after a clear, a rise of the excess by ``decay_db`` over its lowest
-        value since the clear, to at least ``margin``, raises the state again (a new release
-        of the same slide) [s] (0.3).
     """
 
     window: float = 0.05
@@ -102,9 +93,6 @@ class SlippingParams:
     level_block: float = 0.2
     level_tau: float = 5.0
     floor_factor: float = 4.0
-    decay_db: float = 0.0
-    decay_window: float = 0.1
-    rearm_time: float = 0.3
 
     def validate(self, fs: float, band: tuple[float, float]) -> None:
         """Raise ValueError with a reason if a value is unusable at ``fs`` for ``band``."""
@@ -118,10 +106,6 @@ class SlippingParams:
             raise ValueError(f'slipping order must be an integer in 1..8, got {self.order}')
         if not math.isfinite(self.margin):
             raise ValueError(f'slipping margin must be finite, got {self.margin}')
-        for name in ('decay_db', 'decay_window', 'rearm_time'):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f'slipping {name} must be >= 0 and finite, got {value}')
         if not (math.isfinite(self.clear_time) and self.clear_time >= 0):
             raise ValueError(f'slipping clear_time must be >= 0 s, got {self.clear_time}')
         low, high = band
@@ -179,8 +163,6 @@ class SlippingState:
         self._block = max(1, int(round(self.params.level_block / update_interval)))
         self._clear = int(math.ceil(self.params.clear_time / update_interval - 1e-9))
         self._beta = 1.0 - math.exp(-self.params.level_block / self.params.level_tau)
-        self._decay_updates = max(1, int(round(self.params.decay_window / update_interval)))
-        self._rearm_updates = int(round(self.params.rearm_time / update_interval))
         self.reset()
 
     def reset(self) -> None:
@@ -192,9 +174,6 @@ class SlippingState:
         self._level = np.full(N_CHANNELS, np.nan)
         self._slipping = np.zeros(2, bool)
         self._below = np.zeros(2, int)
-        self._recent: list[list[float]] = [[], []]  # excess over the decay window [dB]
-        self._armed = np.zeros(2, int)  # updates left in which a rise re-raises the state
-        self._floor_since = np.full(2, np.inf)  # lowest excess since the clear [dB]
         self._block_values: list[np.ndarray] = []
 
     @property
@@ -265,68 +244,62 @@ class SlippingState:
         p = np.asarray(power_db, np.float64).reshape(-1, N_CHANNELS)
         m = p.shape[0]
         ok = np.isfinite(p) if usable is None else (np.asarray(usable, bool) & np.isfinite(p))
+        events = np.asarray(events, bool).reshape(-1)
         out = SlippingUpdate(np.zeros((m, 2), bool), np.full((m, 2), np.nan), p,
                              np.empty((m, N_CHANNELS)))
-        for i in range(m):
-            out.level[i] = self._level
-            excess = self._excess(p[i], ok[i])
-            self._step(excess, bool(events[i]))
-            out.slipping[i] = self._slipping
-            out.excess[i] = excess
-            quiet = ~np.repeat(self._slipping, 3) & ok[i] & (not events[i])
-            self._block_values.append(np.where(quiet, p[i], np.nan))
-            self._updates += 1
-            if self._updates % self._block == 0:
+        pos = 0
+        while pos < m:  # segments of constant quiet levels, up to a block's end
+            block_end = (self._updates // self._block + 1) * self._block
+            stop = min(m, pos + block_end - self._updates)
+            seg = slice(pos, stop)
+            out.level[seg] = self._level
+            out.excess[seg] = self._excess(p[seg], ok[seg])
+            out.slipping[seg] = self._run(out.excess[seg], events[seg])
+            quiet = ~np.repeat(out.slipping[seg], 3, axis=1) & ok[seg] & ~events[seg, None]
+            self._block_values.append(np.where(quiet, p[seg], np.nan))
+            self._updates += stop - pos
+            if self._updates == block_end:
                 self._close_block()
+            pos = stop
         return out
 
     def _excess(self, power: np.ndarray, ok: np.ndarray) -> np.ndarray:
+        """Mean excess of each finger's usable channels with a level, (k, 2); NaN if none."""
         z = np.where(ok, power - self._level, np.nan)  # NaN: unusable or no level yet
-        excess = np.full(2, np.nan)
+        known = np.isfinite(z)
+        total = np.where(known, z, 0.0)
+        excess = np.full((z.shape[0], 2), np.nan)
         for f, channels in enumerate(FINGER_CHANNELS):
-            values = z[list(channels)]
-            values = values[np.isfinite(values)]
-            if values.size:
-                excess[f] = values.mean()
+            c = list(channels)
+            count = known[:, c].sum(axis=1)
+            excess[:, f] = np.where(count > 0, total[:, c].sum(axis=1) / np.maximum(count, 1),
+                                    np.nan)
         return excess
 
-    def _step(self, excess: np.ndarray, event: bool) -> None:
-        p = self.params
-        for f in range(2):
-            if not np.isfinite(excess[f]):
-                continue  # unknown: keep the state
-            value = float(excess[f])
-            recent = self._recent[f]
-            recent.append(value)
-            if len(recent) > self._decay_updates:
-                recent.pop(0)
-            above = value >= p.margin
-            if not self._slipping[f]:
-                self._armed[f] -= 1
-                self._floor_since[f] = min(self._floor_since[f], value)
-                rearm = (self._armed[f] > 0 and p.decay_db > 0
-                         and value >= self._floor_since[f] + p.decay_db)
-                if above and (event or rearm):
-                    self._raise(f)
-                continue
-            decayed = p.decay_db > 0 and value < max(recent) - p.decay_db
-            if above and not decayed:
-                self._below[f] = 0
-                continue
-            self._below[f] += 1
-            if decayed or self._below[f] >= max(self._clear, 1):
-                self._slipping[f] = False
-                self._below[f] = 0
-                self._armed[f] = self._rearm_updates
-                self._floor_since[f] = value
-
-    def _raise(self, finger: int) -> None:
-        self._slipping[finger] = True
-        self._below[finger] = 0
-        self._recent[finger] = self._recent[finger][-1:]
+    def _run(self, excess: np.ndarray, events: np.ndarray) -> np.ndarray:
+        """The hysteresis over k updates (Python floats: a few microseconds an update)."""
+        margin, need = self.params.margin, max(self._clear, 1)
+        slipping, below = self._slipping.tolist(), self._below.tolist()
+        states = np.empty(excess.shape, bool)
+        for i, (row, event) in enumerate(zip(excess.tolist(), events.tolist())):
+            for f in (0, 1):
+                value = row[f]
+                if value != value:  # NaN, no usable channel: unknown keeps the state
+                    continue
+                if value >= margin:
+                    if event or slipping[f]:
+                        slipping[f], below[f] = True, 0
+                elif slipping[f]:
+                    below[f] += 1
+                    if below[f] >= need:
+                        slipping[f], below[f] = False, 0
+            states[i] = slipping
+        self._slipping = np.array(slipping, bool)
+        self._below = np.array(below, int)
+        return states
 
     def _close_block(self) -> None:
-        values = np.array(self._block_values)
+        values = np.concatenate(self._block_values)
         self._block_values = []
         for c in range(N_CHANNELS):
             column = values[:, c]
