@@ -434,7 +434,30 @@ class PerceptionPipeline:
                 exceed &= ~health.masked(last, self._contact_reach)
             out.contact = np.array([exceed[:3].any(), exceed[3:].any()])
         self._contact_history = ext[-keep:]
-        # slip on the filtered, untared signal
+        slip_any = self._update_slip(filtered, first_index)  # on the untared signal
+        # force features at the force instants (absolute pipeline sample index)
+        step = c.force_step
+        offset = first_index - self._force_features.samples_seen
+        idx, feats = self._force_features.update(filtered, every=step, offset=offset)
+        if idx.size:
+            instant = int(idx[-1] + offset)
+            out.force_sample_index = instant
+            if health.any_masked_since(instant, self._force_reach) and \
+                    health.masked(instant, self._force_reach).any():
+                out.force, out.force_valid = float('nan'), False
+            else:
+                out.force, out.force_valid = self._estimate(feats[-1])
+        base = self._baseline if self._baseline is not None else 0.0
+        out.filtered = filtered[-1] - base
+        if health.any_masked_since(last, self._median_reach):
+            out.filtered[health.masked(last, self._median_reach)] = np.nan
+        return slip_any
+
+    def _update_slip(self, filtered: np.ndarray, first_index: int) -> bool:
+        """Slip detector, masks and slipping state on a chunk of filtered samples starting at
+        pipeline sample ``first_index``; updates the output's slip fields. True if an update
+        of the chunk flagged slip."""
+        out, health, n = self._out, self.health, filtered.shape[0]
         res = self._slip.update(filtered)
         self._slip_mask.record(filtered, res)
         shift = first_index - (self._slip.samples_seen - n)
@@ -466,25 +489,8 @@ class PerceptionPipeline:
             out.slip_active = out.slipping = False
             out.finger_slipping = np.zeros(2, bool)
             out.slip_excess = np.full(2, np.nan)
-        slip_any = bool(res.slip.any())
         out.slip_updates += len(res)
-        # force features at the force instants (absolute pipeline sample index)
-        step = c.force_step
-        offset = first_index - self._force_features.samples_seen
-        idx, feats = self._force_features.update(filtered, every=step, offset=offset)
-        if idx.size:
-            instant = int(idx[-1] + offset)
-            out.force_sample_index = instant
-            if health.any_masked_since(instant, self._force_reach) and \
-                    health.masked(instant, self._force_reach).any():
-                out.force, out.force_valid = float('nan'), False
-            else:
-                out.force, out.force_valid = self._estimate(feats[-1])
-        base = self._baseline if self._baseline is not None else 0.0
-        out.filtered = filtered[-1] - base
-        if health.any_masked_since(last, self._median_reach):
-            out.filtered[health.masked(last, self._median_reach)] = np.nan
-        return slip_any
+        return bool(res.slip.any())
 
     def _estimate(self, features: np.ndarray) -> tuple[float, bool]:
         if self.model is None or self._baseline is None:

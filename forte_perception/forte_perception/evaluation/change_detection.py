@@ -63,6 +63,7 @@ from forte_perception.evaluation.slip_metrics import (
 )
 from forte_perception.evaluation.threshold_sweep import parameter_grid
 from forte_perception.slip.params import SlipParams
+from forte_ros.contract import SAMPLE_RATE
 
 __all__ = ['OperatingPoint', 'best_at_zero_false_alarms', 'delay_false_alarm_curve',
            'is_distractor', 'markdown_curve', 'operating_point', 'slip_params_settings']
@@ -184,8 +185,8 @@ def delay_false_alarm_curve(scenes: list[SlipScene], settings: Sequence[Setting]
     return points
 
 
-def slip_params_settings(base: SlipParams, axis: str, values: Sequence, fs: float = 2000.0
-                         ) -> list[Setting]:
+def slip_params_settings(base: SlipParams, axis: str, values: Sequence,
+                         fs: float = SAMPLE_RATE) -> list[Setting]:
     """Settings of a :class:`SlipParams` mode along one parameter.
 
     Parameters
