@@ -20,11 +20,14 @@ from forte_control.state_machine import (
 
 
 def tighten_times(rig: Rig, seconds: float) -> list[float]:
-    """Times [s, from now] at which the machine tightened during ``seconds``."""
+    """Times [s, from now] at which the machine tightened during ``seconds`` (a
+    re-tightening while slipping is no flag's reaction: slip_reacted stays false)."""
     start, times = rig.now, []
     while rig.now < start + seconds - 1e-9:
+        before = rig.history[-1].servo.position
         out = rig.tick()
-        if out.slip_reacted:
+        if out.servo.position < before - 1e-12:
+            assert not out.slip_reacted
             times.append(round(rig.now - start, 6))
     return times
 

@@ -248,7 +248,9 @@ class GraspPhases:
         """FORTE: a new slip flag outside the refractory time tightens by slip_increment
         (a fault if that would exceed max_tightening); so does a slipping state that
         persists ``slipping_interval`` after the last tightening (never past
-        max_tightening, no fault: the grasp goes on at the cap). True if it tightened."""
+        max_tightening, no fault: the grasp goes on at the cap). True if it tightened on a
+        flag (a re-tightening while slipping is counted in slip_events but is no flag's
+        reaction)."""
         grasp = self._grasp
         assert grasp is not None
         if not (self._controller == Controller.FORTE and valid and perception is not None
@@ -277,7 +279,7 @@ class GraspPhases:
         grasp.slip_events += 1
         self._tighten_to(now, position)
         self._message = f'{reason} {grasp.slip_events}: tightened to {position:.4f} rad'
-        return True
+        return reason == 'slip'  # a flag's reaction (its latency is measured); not a re-tightening
 
     def _tighten_to(self, now: float, position: float) -> None:
         """Command a tightening to ``position`` [rad] at slip_speed and account for it."""
