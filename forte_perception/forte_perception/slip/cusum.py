@@ -83,6 +83,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from forte_perception.slip.state import update_quiet_levels
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
 
 __all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'expected_delay']
@@ -334,15 +335,7 @@ class BandPowerCusum:
         """Update the quiet levels from the finished block; re-base the statistics."""
         y = np.concatenate(self._block_y)
         quiet = np.concatenate(self._block_quiet)
-        for c in range(N_CHANNELS):
-            values = y[quiet[:, c], c]
-            if not values.size:
-                continue
-            med = float(np.median(values))
-            if np.isnan(self._level[c]):
-                self._level[c] = med
-            else:
-                self._level[c] += self._beta * (med - self._level[c])
+        update_quiet_levels(self._level, np.where(quiet, y, np.nan), self._beta)
         for finger in self._fingers:
             if not finger.slipping:  # S = C - M; re-base so that C stays small
                 finger.c, finger.m = finger.c - finger.m, 0.0

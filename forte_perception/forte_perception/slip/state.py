@@ -60,7 +60,7 @@ from scipy.signal import butter, sosfilt, sosfilt_zi
 
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, QUANTUM
 
-__all__ = ['SlippingParams', 'SlippingState', 'SlippingUpdate']
+__all__ = ['SlippingParams', 'SlippingState', 'SlippingUpdate', 'update_quiet_levels']
 
 
 @dataclass(frozen=True)
@@ -299,15 +299,21 @@ class SlippingState:
         return states
 
     def _close_block(self) -> None:
-        values = np.concatenate(self._block_values)
+        update_quiet_levels(self._level, np.concatenate(self._block_values), self._beta)
         self._block_values = []
-        for c in range(N_CHANNELS):
-            column = values[:, c]
-            column = column[np.isfinite(column)]
-            if not column.size:
-                continue
-            median = float(np.median(column))
-            if np.isnan(self._level[c]):
-                self._level[c] = median
-            else:
-                self._level[c] += self._beta * (median - self._level[c])
+
+
+def update_quiet_levels(level: np.ndarray, values: np.ndarray, beta: float) -> None:
+    """Move each channel's quiet level (6,) [dB] in place by ``beta`` towards the median of
+    its finite values of a block (k, 6) (NaN: not quiet or unusable); the first block with
+    a value sets it; a channel without one keeps its level."""
+    for c in range(level.size):
+        column = values[:, c]
+        column = column[np.isfinite(column)]
+        if not column.size:
+            continue
+        median = float(np.median(column))
+        if np.isnan(level[c]):
+            level[c] = median
+        else:
+            level[c] += beta * (median - level[c])
