@@ -110,7 +110,8 @@ class SequentialDetector:
         The slip band [Hz] (10, 50).
     params : SequentialParams, optional
     state : SlippingParams, optional
-        The slipping state, whose fast power the CUSUM reads.
+        The slipping state's parameters (it keeps its own power estimate; the CUSUM reads
+        the ``window`` one of ``params``).
     """
 
     def __init__(self, fs: float, hop: int, band: tuple[float, float] = (10.0, 50.0),
