@@ -41,8 +41,8 @@ usable at an update (a masked window), is left out of its finger's mean.
   the dips of a stick-slip train between releases). A finger with no usable channel keeps
   its state (unknown is not "stopped").
 
-The state can only be raised by an event, so on quiet holds and distractors it is exactly as
-often raised as the detector has false events. A slide that outlasts a tightening keeps it
+The state can only be raised by an event, so on quiet holds and distractors it is raised at
+most as often as the detector has false events. A slide that outlasts a tightening keeps it
 raised; the controller tightens again while it persists (forte_control).
 
 Exactness: the band-pass keeps its state across calls and runs sample by sample, and each
