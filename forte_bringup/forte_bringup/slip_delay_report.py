@@ -31,7 +31,12 @@ from functools import partial
 from pathlib import Path
 
 from forte_bringup.slip_dataset import build_set
-from forte_perception.evaluation.benchmark import cusum_mode, prepare, sequential_mode
+from forte_perception.evaluation.benchmark import (
+    cusum_mode,
+    prepare,
+    robust_mode,
+    sequential_mode,
+)
 from forte_perception.evaluation.change_detection import (
     delay_false_alarm_curve,
     markdown_curve,
@@ -65,8 +70,8 @@ def settings(mode: str) -> list:
         base = SlipParams(mode=mode)
         if mode == 'paper':
             return slip_params_settings(base, 'threshold', values)
-        return [({'T': t}, partial(_robust, params=replace(base, threshold=t,
-                                                             single_threshold=1.5 * t)))
+        return [({'T': t}, partial(robust_mode, params=replace(base, threshold=t,
+                                                                 single_threshold=1.5 * t)))
                 for t in values]
     if mode == 'cusum':
         return [({'h': h}, partial(cusum_mode, cusum=CusumParams(drift=9.0, threshold=h)))
@@ -75,11 +80,6 @@ def settings(mode: str) -> list:
     return [({'h': h}, partial(sequential_mode,
                                params=replace(base, cusum=replace(base.cusum, threshold=h))))
             for h in values]
-
-
-def _robust(inp, params: SlipParams):
-    from forte_perception.evaluation.benchmark import robust_mode
-    return robust_mode(inp, params)
 
 
 def slipping_summary(scenes, inputs, detector) -> dict:
