@@ -37,8 +37,9 @@ WAIT = 60.0
 #: catches the sliding can within it (deterministic closed loop, seeds 0, 1, 13: LIFTED /
 #: HELD, the can 17-18 mm up; with 10 mm the fingers slide along a can that stays on the
 #: table). The raspberry is lifted 10 mm, as in the
-#: sim graph's launch test: on the twin a 30 mm lift ends CRUSHED (finger levels 0.14-0.15
-#: against 0.055 in the closed loop, 3 runs), an open finding of issue 24 (docs/simulation.md).
+#: sim graph's launch test: on a loaded machine a 30 mm lift of the twin's raspberry can
+#: end CRUSHED by false gross-slip tightenings (the finger levels' difference drifts past
+#: the balance tolerance after 19-27 mm of lift), an open finding (docs/simulation.md).
 GRASPS = {'soda_can': (0, 0.05), 'raspberry': (0, 0.01)}
 #: Object height above the table that counts as carried [m] (the closed loop's success).
 CARRIED_HEIGHT = 0.005

@@ -79,6 +79,10 @@ CONTROLLER_PARAMETERS: dict[str, ParameterSpec] = _field_table((
           'flag); 0: flags only', 0.0, 2.0),
     _spec('min_angle', float, 'rad', 'most closed servo command allowed', 0.0, HARD_MAX_ANGLE),
     _spec('no_contact_settle', float, 's', 'wait at min_angle before NO_CONTACT', 0.0, 10.0),
+    _spec('ramp_lead', float, 's', 'the closing and loading ramps run at most this far ahead '
+          'of the latest perception sample and wait while perception trails by more (the '
+          'overshoot past contact stays speed x (lead + detection delay) however late the '
+          'tactile data arrives)', 0.0, HARD_MAX_FRESHNESS),
     # loading
     _spec('loading_speed', float, 'rad/s', 'servo command ramp while loading the initial force',
           *SERVO_SPEED),

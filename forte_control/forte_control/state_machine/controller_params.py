@@ -30,6 +30,7 @@ class ControllerParams:
     contact_level: float = 0.005            # or mean |tared filtered| this high (0: off) [-]
     min_angle: float = 0.0                  # most closed command allowed [rad]
     no_contact_settle: float = 0.3          # wait at min_angle before NO_CONTACT [s]
+    ramp_lead: float = 0.05                 # closing/loading ramp ahead of perception, max [s]
     # loading
     loading_speed: float = 0.05             # servo command ramp while loading [rad/s]
     initial_force: float = 0.25             # f_init [N]

@@ -171,6 +171,7 @@ class GraspStateMachine(GraspPhases):
         self._state = GraspState.CLOSING
         # the command starts where the gripper is: every active state has a command to hold
         self._command(self._grasp.ramp_start_angle, params.closing_speed)
+        self._grasp.ramp_commands.record(now, self._grasp.ramp_start_angle)
         self._arm_velocity = 0.0
         self._last_step = now
         self._message = f'{controller.name}: closing from {start_angle:.3f} rad'

@@ -95,7 +95,7 @@ class GraspPhases:
         """CLOSING of ON_OFF: to theta = 0 at constant speed, wait on_off_settle, lift."""
         assert self._grasp is not None
         p = self._grasp.params
-        command = self._ramp(now, p.on_off_closing_speed, 0.0)
+        command = self._ramp(now, p.on_off_closing_speed, 0.0, paced=False)
         self._command(command, p.on_off_closing_speed)
         if self._settled(now, command, 0.0, p.on_off_settle):
             self._enter_lifting(now, 'ON_OFF: closed fully, lifting')
@@ -477,7 +477,21 @@ class GraspPhases:
         self._servo = ServoOutput(position=float(position), max_current=params.max_current,
                                   profile_velocity=float(speed))
 
-    def _ramp(self, now: float, speed: float, floor: float) -> float:
+    def _ramp(self, now: float, speed: float, floor: float, paced: bool = True) -> float:
+        """The ramp's command at ``now`` [rad]: from ``ramp_start_angle`` towards ``floor``
+        at ``speed``. ``paced``: never more than ``speed * ramp_lead`` beyond the command
+        that was in force at the latest perception sample, i.e. the ramp waits for the
+        sensors to see where it went (a perception trailing by 0.6 s at 0.25 rad/s would
+        otherwise close 0.15 rad blind); when it waits, the ramp restarts from there."""
         grasp = self._grasp
         assert grasp is not None
-        return max(floor, grasp.ramp_start_angle - speed * (now - grasp.phase_start))
+        command = max(floor, grasp.ramp_start_angle - speed * (now - grasp.phase_start))
+        perception = self._latest.perception
+        if paced and perception is not None and math.isfinite(perception.stamp):
+            seen = grasp.ramp_commands.at(perception.stamp, grasp.ramp_start_angle)
+            bound = seen - speed * grasp.params.ramp_lead
+            if command < bound:
+                command = min(bound, self._servo.position if self._servo else bound)
+                grasp.ramp_start_angle, grasp.phase_start = command, now
+            grasp.ramp_commands.record(now, command)
+        return command

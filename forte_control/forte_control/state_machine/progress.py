@@ -2,7 +2,8 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections import deque
+from dataclasses import dataclass, field
 
 from forte_control.state_machine.controller_params import ControllerParams
 from forte_control.state_machine.lift_check import (
@@ -20,7 +21,31 @@ from forte_control.state_machine.types import (
     PerceptionInput,
 )
 
-__all__ = ['GraspProgress', 'LatestInputs']
+__all__ = ['GraspProgress', 'LatestInputs', 'RampCommands']
+
+
+class RampCommands:
+    """The ramp commands issued so far, to look up the one in force at a sensor time.
+
+    Entries older than the last lookup's stamp are pruned, so the record holds only what
+    the perception has not yet seen (a few steps, or the steps of its delay).
+    """
+
+    def __init__(self) -> None:
+        self._entries: deque[tuple[float, float]] = deque()  # (time [s], command [rad])
+
+    def record(self, time: float, command: float) -> None:
+        """Remember that ``command`` [rad] was issued at ``time`` [s]."""
+        self._entries.append((time, command))
+
+    def at(self, stamp: float, default: float) -> float:
+        """The command in force at ``stamp`` [s]: the last one issued at or before it; the
+        first one recorded for an earlier stamp (the ramp starts where the gripper is);
+        ``default`` when nothing was recorded [rad]."""
+        entries = self._entries
+        while len(entries) > 1 and entries[1][0] <= stamp:
+            entries.popleft()
+        return entries[0][1] if entries else default
 
 
 @dataclass
@@ -33,6 +58,7 @@ class GraspProgress:
     start_time: float
     phase_start: float
     ramp_start_angle: float = 0.0      # command at the start of the current ramp [rad]
+    ramp_commands: RampCommands = field(default_factory=RampCommands)  # for ramp_lead
     contact_force: float | None = None
     target_force: float = 0.0
     force_invalid_since: float | None = None
