@@ -48,7 +48,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from forte_perception.slip.cusum import BandPowerCusum, CusumParams
-from forte_perception.slip.state import SlippingParams, SlippingState, SlippingUpdate
+from forte_perception.slip.state import (
+    BandPower,
+    QuietLevels,
+    SlippingParams,
+    SlippingState,
+    SlippingUpdate,
+    quantisation_floor,
+)
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
 
 __all__ = ['SequentialDetector', 'SequentialParams']
@@ -122,17 +129,22 @@ class SequentialDetector:
         self.fs, self.hop = float(fs), int(hop)
         dt = self.hop / self.fs
         self.state = SlippingState(fs, band, dt, state)
-        fast = SlippingParams(window=self.params.window)
-        self._fast = SlippingState(fs, band, dt, fast)
-        self._high = SlippingState(fs, self.params.high_band, dt, fast)
+        fast = int(round(self.params.window * fs))
+        order = self.state.params.order
+        # one band-pass of the slip band for the CUSUM's fast window and the state's window
+        self._low = BandPower(fs, band, order, (fast, self.state.window), self.state.floor)
+        self._high = BandPower(fs, self.params.high_band, order, (fast,), quantisation_floor(
+            self.state.params.floor_factor, self.params.high_band, fs))
+        self._high_levels = QuietLevels(self.state.levels.block, self.state.levels.beta)
         self._cusum = BandPowerCusum(dt, self.params.cusum)
         self.reset()
 
     def reset(self) -> None:
         """Forget everything."""
         self.state.reset()
-        self._fast.reset()
+        self._low.reset()
         self._high.reset()
+        self._high_levels.reset()
         self._cusum.reset()
         self._samples = 0
         self._history = np.zeros((0, N_CHANNELS))  # the last 2 shift_length samples
@@ -160,14 +172,13 @@ class SequentialDetector:
         if ends is None:
             ends = np.arange(first + (-first - 1) % self.hop, first + x.shape[0], self.hop)
         ends = np.asarray(ends, np.int64)
-        low = self._fast.feed(x, ends)
-        high = self._high.feed(x, ends)
-        power = self.state.feed(x, ends)
+        low, power = self._low.feed(x, ends)
+        high = self._high.feed(x, ends)[0]
         if usable is not None:
             low = np.where(usable, low, np.nan)
         ext = np.concatenate([self._history, x])
         origin = first - self._history.shape[0]  # absolute index of ext[0]
-        high_level = self._high.decide(high, np.zeros(ends.size, bool)).level  # (m, 6)
+        high_level = self._high_levels.track(high)  # (m, 6)
 
         def veto(i: int) -> bool:  # the CUSUM's own level is the one in effect at update i
             levels = (self._cusum.level, high_level[i])

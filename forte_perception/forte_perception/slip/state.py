@@ -60,7 +60,8 @@ from scipy.signal import butter, sosfilt, sosfilt_zi
 
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, QUANTUM
 
-__all__ = ['SlippingParams', 'SlippingState', 'SlippingUpdate', 'update_quiet_levels']
+__all__ = ['BandPower', 'QuietLevels', 'SlippingParams', 'SlippingState', 'SlippingUpdate',
+           'quantisation_floor', 'update_quiet_levels']
 
 
 @dataclass(frozen=True)
@@ -136,6 +137,123 @@ class SlippingUpdate:
     level: np.ndarray
 
 
+class BandPower:
+    """Streaming short-window band power of the 6 channels, for one or more windows.
+
+    The filtered signal through a Butterworth band-pass (``order``), squared, averaged over
+    the last ``window`` samples of each window (fewer at the start), plus ``floor``, in dB.
+    One band-pass serves every window.
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate [Hz].
+    band : tuple of float
+        Band [Hz].
+    order : int
+        Butterworth order.
+    windows : tuple of int
+        Averaging windows [samples], each >= 2.
+    floor : float
+        Power added before the logarithm [normalised unit^2].
+    """
+
+    def __init__(self, fs: float, band: tuple[float, float], order: int,
+                 windows: tuple[int, ...], floor: float) -> None:
+        self._sos = butter(int(order), band, btype='bandpass', fs=fs, output='sos')
+        self._windows = tuple(int(w) for w in windows)
+        self._floor = float(floor)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the filter state and the squares kept."""
+        self._zi: np.ndarray | None = None
+        self._squares = np.zeros((0, N_CHANNELS))  # the last max(windows) - 1 squared outputs
+        self._samples = 0
+
+    def feed(self, filtered: np.ndarray, ends: np.ndarray) -> list[np.ndarray]:
+        """Band-pass the new samples (n, 6); the power (m, 6) [dB] of each window at the
+        sample indices ``ends`` (m,) (absolute, counted from the last reset, inside this
+        chunk), one array per window."""
+        x = np.asarray(filtered, np.float64).reshape(-1, N_CHANNELS)
+        if not np.isfinite(x).all():
+            raise ValueError('slipping state input must be finite')
+        if self._zi is None and x.shape[0]:
+            self._zi = sosfilt_zi(self._sos)[:, :, None] * x[0][None, None, :]
+        first = self._samples
+        if x.shape[0]:
+            y, self._zi = sosfilt(self._sos, x, axis=0, zi=self._zi)
+        else:
+            y = x
+        ext = np.concatenate([self._squares, y * y])
+        self._samples += x.shape[0]
+        keep = max(self._windows) - 1
+        self._squares = ext[-keep:]
+        rel = np.asarray(ends, int) - (first - (ext.shape[0] - x.shape[0]))
+        return [self._window_power(ext, rel, w) for w in self._windows]
+
+    def _window_power(self, ext: np.ndarray, rel: np.ndarray, window: int) -> np.ndarray:
+        power = np.empty((rel.size, N_CHANNELS))
+        full = rel >= window - 1
+        if full.any():  # each window gathered contiguously: its sum is its own reduction
+            view = sliding_window_view(ext, window, axis=0)  # (k, 6, window)
+            block = np.ascontiguousarray(view[rel[full] - window + 1])
+            power[full] = block.sum(axis=2) / window
+        for i in np.flatnonzero(~full):  # the first window - 1 samples after a reset
+            block = np.ascontiguousarray(ext[:rel[i] + 1].T)
+            power[i] = block.sum(axis=1) / (rel[i] + 1)
+        return 10.0 * np.log10(power + self._floor)
+
+
+class QuietLevels:
+    """Each channel's quiet level [dB]: the median of its quiet values over a block of
+    ``block`` updates (fixed absolute update indices), approached by ``beta`` per block.
+
+    Parameters
+    ----------
+    block : int
+        Updates per block.
+    beta : float
+        Fraction of the way to a block's median the level moves.
+    """
+
+    def __init__(self, block: int, beta: float) -> None:
+        self.block, self.beta = int(block), float(beta)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the levels."""
+        self.updates = 0
+        self.level = np.full(N_CHANNELS, np.nan)
+        self._values: list[np.ndarray] = []
+
+    def segment_stop(self, pos: int, m: int) -> int:
+        """End (exclusive) of the segment of m updates from ``pos`` with one level."""
+        block_end = (self.updates // self.block + 1) * self.block
+        return min(m, pos + block_end - self.updates)
+
+    def record(self, quiet_values: np.ndarray) -> None:
+        """The values (k, 6) of a segment [dB] (NaN: not quiet); closes a full block."""
+        self._values.append(quiet_values)
+        self.updates += quiet_values.shape[0]
+        if self.updates % self.block == 0:
+            update_quiet_levels(self.level, np.concatenate(self._values), self.beta)
+            self._values = []
+
+    def track(self, power_db: np.ndarray) -> np.ndarray:
+        """Record m updates whose finite values are all quiet; the level in effect at each
+        (m, 6) [dB]."""
+        p = np.asarray(power_db, np.float64).reshape(-1, N_CHANNELS)
+        levels = np.empty_like(p)
+        pos = 0
+        while pos < p.shape[0]:
+            stop = self.segment_stop(pos, p.shape[0])
+            levels[pos:stop] = self.level
+            self.record(np.where(np.isfinite(p[pos:stop]), p[pos:stop], np.nan))
+            pos = stop
+        return levels
+
+
 class SlippingState:
     """Streaming slipping state: feed filtered samples, then decide at the detector updates.
 
@@ -155,31 +273,26 @@ class SlippingState:
         self.params = params or SlippingParams()
         self.params.validate(fs, band)
         self.fs = float(fs)
-        self._sos = butter(int(self.params.order), band, btype='bandpass', fs=fs,
-                           output='sos')
-        self._window = int(round(self.params.window * fs))
-        self._floor = (self.params.floor_factor * QUANTUM ** 2 / 12.0
-                       * 2.0 * (band[1] - band[0]) / fs)
-        self._block = max(1, int(round(self.params.level_block / update_interval)))
+        self.window = int(round(self.params.window * fs))
+        self.floor = quantisation_floor(self.params.floor_factor, band, fs)
+        self._power = BandPower(fs, band, self.params.order, (self.window,), self.floor)
         self._clear = int(math.ceil(self.params.clear_time / update_interval - 1e-9))
-        self._beta = 1.0 - math.exp(-self.params.level_block / self.params.level_tau)
+        self.levels = QuietLevels(max(1, int(round(self.params.level_block / update_interval))),
+                                  1.0 - math.exp(-self.params.level_block
+                                                 / self.params.level_tau))
         self.reset()
 
     def reset(self) -> None:
         """Forget everything (filter, levels, state)."""
-        self._zi: np.ndarray | None = None
-        self._squares = np.zeros((0, N_CHANNELS))  # the last window - 1 squared outputs
-        self._samples = 0
-        self._updates = 0
-        self._level = np.full(N_CHANNELS, np.nan)
+        self._power.reset()
+        self.levels.reset()
         self._slipping = np.zeros(2, bool)
         self._below = np.zeros(2, int)
-        self._block_values: list[np.ndarray] = []
 
     @property
     def level(self) -> np.ndarray:
         """Quiet level per channel [dB]; NaN before its first block."""
-        return self._level.copy()
+        return self.levels.level.copy()
 
     @property
     def slipping(self) -> np.ndarray:
@@ -202,31 +315,7 @@ class SlippingState:
             Mean square band-passed value over the ``window`` samples up to each end (fewer
             at the start), plus the floor, in dB.
         """
-        x = np.asarray(filtered, np.float64).reshape(-1, N_CHANNELS)
-        if not np.isfinite(x).all():
-            raise ValueError('slipping state input must be finite')
-        if self._zi is None and x.shape[0]:
-            self._zi = sosfilt_zi(self._sos)[:, :, None] * x[0][None, None, :]
-        first = self._samples
-        if x.shape[0]:
-            y, self._zi = sosfilt(self._sos, x, axis=0, zi=self._zi)
-        else:
-            y = x
-        ext = np.concatenate([self._squares, y * y])
-        self._samples += x.shape[0]
-        keep = self._window - 1
-        self._squares = ext[-keep:] if keep else ext[:0]
-        rel = np.asarray(ends, int) - (first - (ext.shape[0] - x.shape[0]))
-        power = np.empty((rel.size, N_CHANNELS))
-        full = rel >= self._window - 1
-        if full.any():  # each window gathered contiguously: its sum is its own reduction
-            view = sliding_window_view(ext, self._window, axis=0)  # (k, 6, window)
-            block = np.ascontiguousarray(view[rel[full] - self._window + 1])
-            power[full] = block.sum(axis=2) / self._window
-        for i in np.flatnonzero(~full):  # the first window - 1 samples after a reset
-            block = np.ascontiguousarray(ext[:rel[i] + 1].T)
-            power[i] = block.sum(axis=1) / (rel[i] + 1)
-        return 10.0 * np.log10(power + self._floor)
+        return self._power.feed(filtered, ends)[0]
 
     def decide(self, power_db: np.ndarray, events: np.ndarray,
                usable: np.ndarray | None = None) -> SlippingUpdate:
@@ -235,7 +324,8 @@ class SlippingState:
         Parameters
         ----------
         power_db : ndarray (m, 6)
-            From :meth:`feed` at the updates' last samples [dB].
+            From :meth:`feed` at the updates' last samples [dB] (or the same estimate
+            computed elsewhere, :class:`BandPower`).
         events : ndarray (m,), bool
             The detector's slip event at each update.
         usable : ndarray (m, 6), bool, optional
@@ -249,23 +339,19 @@ class SlippingState:
                              np.empty((m, N_CHANNELS)))
         pos = 0
         while pos < m:  # segments of constant quiet levels, up to a block's end
-            block_end = (self._updates // self._block + 1) * self._block
-            stop = min(m, pos + block_end - self._updates)
+            stop = self.levels.segment_stop(pos, m)
             seg = slice(pos, stop)
-            out.level[seg] = self._level
+            out.level[seg] = self.levels.level
             out.excess[seg] = self._excess(p[seg], ok[seg])
             out.slipping[seg] = self._run(out.excess[seg], events[seg])
             quiet = ~np.repeat(out.slipping[seg], 3, axis=1) & ok[seg] & ~events[seg, None]
-            self._block_values.append(np.where(quiet, p[seg], np.nan))
-            self._updates += stop - pos
-            if self._updates == block_end:
-                self._close_block()
+            self.levels.record(np.where(quiet, p[seg], np.nan))
             pos = stop
         return out
 
     def _excess(self, power: np.ndarray, ok: np.ndarray) -> np.ndarray:
         """Mean excess of each finger's usable channels with a level, (k, 2); NaN if none."""
-        z = np.where(ok, power - self._level, np.nan)  # NaN: unusable or no level yet
+        z = np.where(ok, power - self.levels.level, np.nan)  # NaN: unusable or no level yet
         known = np.isfinite(z)
         total = np.where(known, z, 0.0)
         excess = np.full((z.shape[0], 2), np.nan)
@@ -298,9 +384,11 @@ class SlippingState:
         self._below = np.array(below, int)
         return states
 
-    def _close_block(self) -> None:
-        update_quiet_levels(self._level, np.concatenate(self._block_values), self._beta)
-        self._block_values = []
+
+def quantisation_floor(factor: float, band: tuple[float, float], fs: float) -> float:
+    """``factor`` times the in-band power of uniform quantisation noise (variance
+    q^2 / 12, the fraction ``2 (f_max - f_min) / fs`` of it in ``band``) [unit^2]."""
+    return factor * QUANTUM ** 2 / 12.0 * 2.0 * (band[1] - band[0]) / fs
 
 
 def update_quiet_levels(level: np.ndarray, values: np.ndarray, beta: float) -> None:

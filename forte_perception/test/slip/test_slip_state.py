@@ -10,7 +10,7 @@ import pytest
 
 from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
 from forte_perception.slip.params import SlipParams
-from forte_perception.slip.state import SlippingParams, SlippingState
+from forte_perception.slip.state import BandPower, QuietLevels, SlippingParams, SlippingState
 from forte_ros.contract import QUANTUM
 
 FS = 2000.0
@@ -138,6 +138,39 @@ def test_any_chunking_gives_the_batch_result_bit_for_bit():
         start = stop
     assert np.array_equal(np.concatenate(excess), batch.excess, equal_nan=True)
     assert np.array_equal(np.concatenate(slipping), batch.slipping)
+
+
+def test_one_band_pass_serves_several_windows_bit_for_bit():
+    """BandPower with windows (60, 100) gives, from one filter, what two single-window
+    estimates give (the sequential detector's CUSUM window and the state's)."""
+    x = with_burst(noisy(3000, seed=4), 1000, 2000, 12.0)
+    ends = np.arange(HOP - 1, x.shape[0], HOP)
+    floor = SlippingState(FS, BAND, HOP / FS).floor
+    both = BandPower(FS, BAND, 1, (60, 100), floor)
+    short = BandPower(FS, BAND, 1, (60,), floor)
+    long = BandPower(FS, BAND, 1, (100,), floor)
+    got = [both.feed(x[i:i + 37], ends[(ends >= i) & (ends < i + 37)])
+           for i in range(0, x.shape[0], 37)]
+    assert np.array_equal(np.concatenate([g[0] for g in got]), short.feed(x, ends)[0])
+    assert np.array_equal(np.concatenate([g[1] for g in got]), long.feed(x, ends)[0])
+
+
+def test_quiet_levels_alone_are_the_states_levels_without_events():
+    """Without events no finger is ever raised, so every finite value is quiet: the
+    levels-only path gives the levels decide() reports (blocks of 0.2 s = 100 updates)."""
+    x = noisy(8000, noise_lsb=2.0, seed=5)
+    x[4000:] += noisy(4000, noise_lsb=6.0, seed=6)  # the quiet level moves up
+    ends, update, state = run(x)
+    levels = QuietLevels(state.levels.block, state.levels.beta)
+    tracked = np.concatenate([levels.track(update.power_db[i:i + 7])
+                              for i in range(0, ends.size, 7)])
+    assert np.array_equal(tracked, update.level, equal_nan=True)
+    block = state.levels.block
+    assert block == 100
+    assert np.isnan(tracked[:block]).all() and np.isfinite(tracked[block:]).all()
+    # noise x3.2 at update 1000: +10 dB; after 2 s the EMA (tau 5 s) has moved 1 - e^-0.4
+    # = 33 % of it (3.3 dB), less the first block's lag: at least 2 dB on every channel
+    assert (tracked[-1] - tracked[990] > 2.0).all()
 
 
 def test_bad_values_are_refused_with_a_reason():
