@@ -71,7 +71,7 @@ class SequentialParams:
         Drift k [dB] and threshold h [dB s] of the CUSUM on the fast excess (8, 0.05).
     window : float
         Averaging window of the fast band power the CUSUM reads [s] (0.03; the slipping
-        state keeps its own).
+        state averages over its own window).
     veto_ratio : float
         Level-shift veto: shift against the vibration's peak-to-peak amplitude (0.1).
     shift_length : int
@@ -117,8 +117,8 @@ class SequentialDetector:
         The slip band [Hz] (10, 50).
     params : SequentialParams, optional
     state : SlippingParams, optional
-        The slipping state's parameters (it keeps its own power estimate; the CUSUM reads
-        the ``window`` one of ``params``).
+        The slipping state's parameters. One band-pass of the slip band gives both the
+        state's power (its ``window``) and the CUSUM's (the ``window`` of ``params``).
     """
 
     def __init__(self, fs: float, hop: int, band: tuple[float, float] = (10.0, 50.0),
