@@ -265,11 +265,15 @@ class GraspControllerNode(GripperCommandMixin, Node):
         self._publish_state(force=True)
 
     def _have_inputs(self, perception: bool) -> bool:
-        return self._joint is not None and (self._perception is not None or not perception)
+        """A joint state, and if ``perception`` a tactile state with valid data (a chunk
+        after a gap is marked invalid: the wait goes on to the next one)."""
+        return self._joint is not None and (
+            not perception or (self._perception is not None and self._perception.data_valid))
 
     async def _wait_for_inputs(self, perception: bool) -> None:
-        """Listen, and wait until a joint state (and a tactile state if ``perception``) has
-        arrived since, or ``input_wait`` has passed on the node's clock."""
+        """Listen, and wait until a joint state (and a valid tactile state if
+        ``perception``) has arrived since, or ``input_wait`` has passed on the node's clock
+        (then the machine judges what it has: a goal is refused with the reason)."""
         self._listen()
         if self._have_inputs(perception):
             return

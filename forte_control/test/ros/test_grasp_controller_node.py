@@ -19,6 +19,7 @@ checks (``Harness.spin_until``): one thread runs every callback, as in the contr
 """
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 
@@ -78,6 +79,7 @@ class FakeWorld(Node):
         self.publish_joints = True
         self.slip_next = False
         self.slipping_until = -1.0  # sim time [s] until which perception reports slipping
+        self.invalid_until = -math.inf  # tactile data_valid false before this time [s]
         self.servo_log: list[tuple[float, ServoCommand]] = []   # (simulated time, command)
         self.arm_log: list[tuple[float, TwistStamped]] = []
         self.states: list[GraspStateMsg] = []
@@ -157,7 +159,7 @@ class FakeWorld(Node):
         msg.slipping = self.sim_time < self.slipping_until
         msg.finger_slipping = [msg.slipping, msg.slipping]
         msg.slip_active = True
-        msg.data_valid = True
+        msg.data_valid = self.sim_time >= self.invalid_until  # false: the chunks after a gap
         msg.tared = True
         level = GAIN * squeeze if sensed else 0.0
         left = 2.0 * level if self.table_holds and self.lift > 0.0 else level
@@ -424,6 +426,28 @@ def test_no_joint_states_refuses_goal_before_motion(harness):
     harness.spin_for(0.1)
     assert harness.world.servo_log == []
     assert all(msg.twist.linear.z == 0.0 for _, msg in harness.world.arm_log)
+
+
+def test_a_goal_waits_past_invalid_tactile_data(harness):
+    """A goal that meets tactile states marked invalid (the chunks after a gap of lost
+    samples) waits for a valid one, at most input_wait (1 s), instead of being refused."""
+    valid_from = harness.now + 0.3
+    harness.world.invalid_until = valid_from
+    handle = harness.send(controller=Grasp.Goal.FORTE)
+    assert handle.accepted
+    result = harness.result(handle).result
+    assert result.outcome == Outcome.LIFTED, result.message
+    assert harness.world.servo_log[0][0] >= valid_from  # no motion on invalid data
+
+
+def test_a_goal_on_lasting_invalid_tactile_data_is_refused(harness):
+    harness.world.invalid_until = harness.now + 5.0
+    handle = harness.send(controller=Grasp.Goal.FORTE)
+    if handle.accepted:  # accepted by the goal callback, refused by the machine
+        result = harness.result(handle).result
+        assert result.outcome == Outcome.FAULT and 'invalid data' in result.message
+    assert harness.now < harness.world.invalid_until
+    assert harness.world.servo_log == []
 
 
 def test_object_left_on_the_table_is_not_carried(harness):
