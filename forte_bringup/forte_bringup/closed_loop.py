@@ -346,6 +346,8 @@ class _ClosedLoop:
         """One state machine update on the chunk; its commands apply to the next chunk."""
         outputs = self.machine.step(self.inputs(out, truth, stamp), stamp)
         self.commands.follow(outputs)
+        if outputs.servo_changed:  # applies from the next chunk (the sequential mode's gate)
+            self.pipeline.servo_moved()
         if outputs.slip_reacted:
             self.log.reaction_times.append(t)
         if outputs.state == GraspState.LIFTING and math.isnan(self.log.lift_start):

@@ -48,6 +48,7 @@ from forte_perception.median import MEDIAN_WINDOW, RunningMedian
 from forte_perception.slip.detector import SlipDetector, SlipParams
 from forte_perception.slip.mask import SlipMask
 from forte_perception.slip.sequential import SequentialDetector
+from forte_perception.slip.servo_gate import ServoGate
 from forte_perception.slip.state import SlippingParams, SlippingState
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, SAMPLE_RATE
 
@@ -287,6 +288,8 @@ class PerceptionPipeline:
         self._sequential = (SequentialDetector(c.fs, c.slip.hop, (c.slip.f_min, c.slip.f_max),
                                                state=c.slipping)
                             if c.slip.mode == 'sequential' else None)
+        self._servo_gate = ServoGate(int(round(self._sequential.params.servo_hold * c.fs))
+                                     if self._sequential is not None else 0)
         self._median_reach = c.median_window
         self._contact_reach = c.contact_window + c.median_window - 1
         self._force_reach = max(window_lengths(c.fs)) + c.median_window - 1
@@ -307,6 +310,12 @@ class PerceptionPipeline:
     def set_model(self, model: ForceModel | None) -> None:
         """Replace the force model (takes effect at the next force instant)."""
         self.model = model
+
+    def servo_moved(self, sample: int | None = None) -> None:
+        """The servo command changed, taking effect at pipeline sample ``sample`` (default:
+        the next one). The sequential mode vetoes its alarms for ``servo_hold`` after it
+        (:mod:`forte_perception.slip.servo_gate`); the other modes ignore it."""
+        self._servo_gate.moved(self._samples if sample is None else sample)
 
     def mark_gap(self) -> None:
         """Declare that samples were lost before the next chunk (see module notes)."""
@@ -465,7 +474,9 @@ class PerceptionPipeline:
         if len(res) and health.any_masked_since(first_index, self._slip_mask.decision_reach):
             psd_ok = ~health.masked(res.sample_index + shift, self._slip_mask.psd_reach)
         if self._sequential is not None:  # its events replace the PSD rule's flags
-            _, events, state = self._sequential.update(filtered, psd_ok, res.sample_index)
+            gated = self._servo_gate.gated(res.sample_index + shift)
+            _, events, state = self._sequential.update(filtered, psd_ok, res.sample_index,
+                                                       gated)
         else:
             power = self._slipping.feed(filtered, res.sample_index)
         if len(res):

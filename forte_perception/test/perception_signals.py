@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from forte_ros.contract import QUANTUM
+
 FS = 2000.0
 
 
@@ -60,3 +62,14 @@ def band_bursts(n: int, channels=range(6), onsets: tuple[int, ...] = (3000, 6000
             burst = signal.lfilter(b, a, rng.normal(size=n))
             x[:, c] += envelope * burst / burst.std()
     return x
+
+
+def ringing_after_a_step(n: int = 12000, at: int = 8000) -> np.ndarray:
+    """Quantised noise on a held grip, and a 30 ms 40 LSB 25 Hz ringing at ``at``."""
+    rng = np.random.default_rng(1)
+    lsb = rng.normal(0.0, 1.0, (n, 6)) + 300.0
+    t = np.arange(n) / 2000.0
+    ring = 40.0 * np.sin(2 * np.pi * 25.0 * t)
+    ring[:at] = 0.0
+    ring[at + 60:] = 0.0
+    return np.round(lsb + ring[:, None]) * QUANTUM

@@ -57,7 +57,7 @@ from rclpy.node import Node
 from rclpy.task import Future
 from std_srvs.srv import Trigger
 
-from forte_msgs.msg import SensorInfo, TactileFrames, TactileState
+from forte_msgs.msg import SensorInfo, ServoCommand, TactileFrames, TactileState
 from forte_msgs.srv import Tare
 from forte_perception.channel_health import channel_report
 from forte_perception.force import ForceModel
@@ -67,7 +67,7 @@ from forte_ros.contract import BASE_FRAME, CHANNEL_NAMES, prefixed
 from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status, node_path
 from forte_ros.parameter_table import ParameterSpec, parameter_table, replace_fields
 from forte_ros.parameters import declare_table, parameter_update, read_table
-from forte_ros.qos import DIAGNOSTICS, SENSOR_FRAMES, SENSOR_INFO, TACTILE_STATE
+from forte_ros.qos import COMMANDS, DIAGNOSTICS, SENSOR_FRAMES, SENSOR_INFO, TACTILE_STATE
 from forte_ros.sensor_identity import IdentityCheck, SensorIdentity, check_identity
 
 #: Every parameter of the node, in the order of declaration. Defaults: the fields of
@@ -228,6 +228,9 @@ class PerceptionNode(Node):
                                  SENSOR_FRAMES, callback_group=self._group)
         self.create_subscription(SensorInfo, 'tactile/sensor_info', self._on_sensor_info,
                                  SENSOR_INFO, callback_group=self._group)
+        self._servo_subscription = None
+        self._last_servo_position: float | None = None
+        self._follow_servo()
         self._use_model(model)
         self.create_service(Tare, 'perception/tare', self._on_tare,
                             callback_group=self._service_group)
@@ -268,6 +271,7 @@ class PerceptionNode(Node):
                 self._gap_offset += self._pipeline.gaps
                 self._pipeline.config = config
                 self._pipeline.reset()
+                self._follow_servo()
                 self.get_logger().info('pipeline parameters changed: pipeline restarted')
             if model_change:
                 self._use_model(model)
@@ -339,6 +343,28 @@ class PerceptionNode(Node):
                          f'{self._sample_rate} Hz')
             return None
         return frames
+
+    def _follow_servo(self) -> None:
+        """Subscribe to ``gripper/command`` once the sequential mode needs it: its servo
+        gate (forte_perception.slip.servo_gate) vetoes alarms after each command change."""
+        if self._servo_subscription is None and self._pipeline.config.slip.mode == 'sequential':
+            self._servo_subscription = self.create_subscription(
+                ServoCommand, 'gripper/command', self._on_servo_command, COMMANDS,
+                callback_group=self._group)
+
+    def _on_servo_command(self, msg: ServoCommand) -> None:
+        """A changed servo command, mapped to the pipeline sample at its stamp (the stamp of
+        the latest processed sample is known; no stamp: the next sample)."""
+        with self._lock:
+            if msg.position == self._last_servo_position:
+                return
+            self._last_servo_position = msg.position
+            sample = None
+            stamp_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            if self._last_stamp is not None and stamp_ns > 0:
+                ahead = (stamp_ns - self._last_stamp[0]) * 1e-9 * self._sample_rate
+                sample = self._pipeline.samples_seen - 1 + int(round(ahead))
+            self._pipeline.servo_moved(sample)
 
     def _on_frames(self, msg: TactileFrames) -> None:
         t0 = time.perf_counter()

@@ -80,6 +80,9 @@ class SequentialParams:
         The out-of-band reference [Hz] (60, 250).
     hum_ratio_db : float
         Hum veto: the high band's power gain against the slip band's [dB] (-2).
+    servo_hold : float
+        Servo veto: alarms within this long after a servo command change are vetoed [s]
+        (0.1; :mod:`forte_perception.slip.servo_gate`).
     """
 
     cusum: CusumParams = field(default_factory=lambda: CusumParams(drift=8.0, threshold=0.05,
@@ -89,6 +92,7 @@ class SequentialParams:
     shift_length: int = 200
     high_band: tuple[float, float] = (60.0, 250.0)
     hum_ratio_db: float = -2.0
+    servo_hold: float = 0.1
 
     def validate(self, fs: float) -> None:
         """Raise ValueError with a reason if a value is unusable at ``fs``."""
@@ -102,6 +106,8 @@ class SequentialParams:
             raise ValueError(f'high_band {self.high_band} Hz must lie inside (0, {fs / 2})')
         if not math.isfinite(self.hum_ratio_db):
             raise ValueError(f'hum_ratio_db must be finite, got {self.hum_ratio_db}')
+        if not (math.isfinite(self.servo_hold) and self.servo_hold >= 0):
+            raise ValueError(f'servo_hold must be >= 0 s, got {self.servo_hold}')
 
 
 class SequentialDetector:
@@ -151,12 +157,14 @@ class SequentialDetector:
         self.vetoed = 0
 
     def update(self, filtered: np.ndarray, usable: np.ndarray | None = None,
-               ends: np.ndarray | None = None
+               ends: np.ndarray | None = None, gated: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, SlippingUpdate]:
         """Consume filtered samples (n, 6); updates at every ``hop``-th sample, or at the
         sample indices ``ends`` (since the reset, inside this chunk) when given (the PSD
         detector's updates, in the pipeline); ``usable`` (m, 6): channels without an invalid
-        value in reach.
+        value in reach; ``gated`` (m,): updates within ``servo_hold`` after a servo command
+        change (:class:`~forte_perception.slip.servo_gate.ServoGate`), whose alarms are
+        vetoed.
 
         Returns
         -------
@@ -181,6 +189,8 @@ class SequentialDetector:
         high_level = self._high_levels.track(high)  # (m, 6)
 
         def veto(i: int) -> bool:  # the CUSUM's own level is the one in effect at update i
+            if gated is not None and gated[i]:
+                return True
             levels = (self._cusum.level, high_level[i])
             return self._veto(ext, origin, int(ends[i]), low[i], high[i], levels)
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from perception_signals import random_walk, slip_bursts
+from perception_signals import random_walk, ringing_after_a_step, slip_bursts
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -479,3 +479,33 @@ def test_the_sensor_identity_decides_whether_the_model_is_used(harness, tmp_path
     assert status.level == DiagnosticStatus.ERROR
     assert status.message.startswith('force model refused: model channel order')
     assert {kv.key: kv.value for kv in status.values}['force model'] == 'refused'
+
+
+@pytest.mark.parametrize('harness, told', [([Parameter('slip_mode', value='sequential')], False),
+                                           ([Parameter('slip_mode', value='sequential')], True)],
+                         indirect=['harness'], ids=['no_command', 'servo_command'])
+def test_sequential_mode_gates_alarms_after_a_servo_command(harness, told):
+    """A 30 ms 40 LSB ringing at sample 8000 (a servo step shaking the fingers): in the
+    sequential mode it alarms, unless a gripper/command stamped at that sample's time (sent
+    100 samples before, over DDS) told the node the servo moved."""
+    from forte_msgs.msg import ServoCommand
+    from forte_ros.qos import COMMANDS
+
+    commands = harness.peer.create_publisher(ServoCommand, 'gripper/command', COMMANDS)
+    deadline = time.monotonic() + 10.0
+    while commands.get_subscription_count() < 1:
+        assert time.monotonic() < deadline, 'the node does not follow gripper/command'
+        time.sleep(0.01)
+    x = ringing_after_a_step()
+    for start in range(0, x.shape[0], CHUNK):
+        if told and start == 7900:
+            command = ServoCommand(position=0.3)
+            command.header.stamp.sec, command.header.stamp.nanosec = 104, 0  # sample 8000
+            commands.publish(command)
+            time.sleep(0.3)
+        harness.send(x[start:start + CHUNK])
+    flagged = [s.sample_index for s in harness.states if s.slip and s.sample_index >= 8000]
+    if told:
+        assert flagged == []
+    else:
+        assert flagged and flagged[0] < 8000 + 200

@@ -91,8 +91,29 @@ def test_any_chunking_gives_the_same_events_and_state():
         assert np.array_equal(slip, batch[1]) and np.array_equal(slipping, batch[2])
 
 
+def test_alarms_in_the_servo_gate_are_vetoed_and_a_later_slip_is_heard():
+    """A 30 ms 40 LSB ringing right after a servo step (the gripper's own motion) alarms
+    without the gate and not inside it; a slip 0.3 s later, beyond the 0.1 s hold, is heard
+    within 40 ms."""
+    x = scene()
+    x[:, :] += sine(x.shape[0], ONSET, ONSET + 60, 25.0, 40.0)[:, None]
+    later = ONSET + 600
+    x[:, :3] += sine(x.shape[0], later, later + 2000, 25.0, 30.0)[:, None]
+    ends, slip, _, _ = detect(x)
+    assert ONSET <= ends[slip][0] < ONSET + 200  # the servo's transient alarms ungated
+    detector = SequentialDetector(FS, 4)
+    hold = int(SequentialParams().servo_hold * FS)
+    gated = (ends >= ONSET) & (ends < ONSET + hold)
+    _, slip, _ = detector.update(np.round(x) * QUANTUM, gated=gated)
+    alarms = ends[slip]
+    assert not ((alarms >= ONSET) & (alarms < later)).any()
+    assert alarms.size and later <= alarms[0] <= later + 0.04 * FS
+
+
 def test_bad_parameters_are_refused():
     with pytest.raises(ValueError, match='high_band'):
         SequentialDetector(FS, 4, params=SequentialParams(high_band=(60.0, 1500.0)))
     with pytest.raises(ValueError, match='shift_length'):
         SequentialDetector(FS, 4, params=SequentialParams(shift_length=0))
+    with pytest.raises(ValueError, match='servo_hold'):
+        SequentialDetector(FS, 4, params=SequentialParams(servo_hold=-0.1))

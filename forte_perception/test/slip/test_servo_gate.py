@@ -1,0 +1,61 @@
+"""The servo gate (forte_perception.slip.servo_gate): intervals of gated pipeline samples."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from perception_signals import ringing_after_a_step
+
+from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
+from forte_perception.slip.params import SlipParams
+from forte_perception.slip.servo_gate import ServoGate
+
+
+def test_samples_after_a_change_are_gated_for_hold_samples():
+    gate = ServoGate(200)
+    assert gate.gated(np.arange(10)) is None  # nothing pending
+    gate.moved(1000)
+    mask = gate.gated(np.array([999, 1000, 1199, 1200]))
+    assert mask.tolist() == [False, True, True, False]
+
+
+def test_overlapping_changes_merge_and_old_intervals_are_forgotten():
+    gate = ServoGate(100)
+    gate.moved(0)
+    gate.moved(50)    # overlaps: one interval [0, 150)
+    gate.moved(400)   # apart: [400, 500)
+    assert gate.gated(np.array([149, 150, 399, 499])).tolist() == [True, False, False, True]
+    assert gate.gated(np.array([500, 600])) is None  # both intervals lie behind
+
+
+def test_hold_zero_turns_the_gate_off_and_bad_holds_are_refused():
+    gate = ServoGate(0)
+    gate.moved(10)
+    assert gate.gated(np.arange(20)) is None
+    for bad in (-1, 2.5):
+        with pytest.raises(ValueError, match='hold'):
+            ServoGate(bad)
+
+
+@pytest.mark.parametrize('mode', ['sequential', 'robust', 'paper'])
+def test_pipeline_gates_only_the_sequential_mode(mode):
+    """The pipeline told of a servo change at the ringing's first sample: the sequential
+    mode flags nothing there; the PSD modes give the same outputs whether told or not."""
+    x = ringing_after_a_step()
+    outputs = []
+    for told in (False, True):
+        pipeline = PerceptionPipeline(PipelineConfig(slip=SlipParams(mode=mode)))
+        flags = []
+        for start in range(0, x.shape[0], 20):
+            if told and start == 8000:
+                pipeline.servo_moved()
+            out = pipeline.process(x[start:start + 20])
+            flags.append((out.slip, out.slipping, tuple(out.psd_max_db)))
+        outputs.append(flags)
+    ungated, gated = outputs
+    if mode == 'sequential':
+        assert any(slip for slip, _, _ in ungated[400:])  # the ringing alarms ungated
+        assert not any(slip or slipping for slip, slipping, _ in gated[400:])
+    else:
+        assert [f[:2] for f in gated] == [f[:2] for f in ungated]
+        assert np.array_equal(np.array([f[2] for f in gated]),
+                              np.array([f[2] for f in ungated]), equal_nan=True)
