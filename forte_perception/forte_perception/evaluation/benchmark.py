@@ -45,6 +45,7 @@ from forte_perception.slip.cusum import BandPowerCusum, CusumParams
 from forte_perception.slip.detector import SlipParams, slip_features
 from forte_perception.slip.robust import level_shift_veto
 from forte_perception.slip.sequential import SequentialDetector, SequentialParams
+from forte_perception.slip.servo_gate import ServoGate
 
 __all__ = ['MODES', 'SERVO_HOLD', 'Detection', 'SensorInput', 'cusum_mode', 'markdown',
            'paper_mode', 'prepare', 'report', 'robust_mode', 'robust_servo_gate_mode', 'run_mode',
@@ -121,6 +122,16 @@ def cusum_mode(inp: SensorInput, cusum: CusumParams | None = None,
 SERVO_HOLD = 0.35
 
 
+def servo_changes(inp: SensorInput) -> np.ndarray:
+    """Sample indices at which the scene's commanded servo angle (context
+    ``servo_command``) changes; empty where the scene has none."""
+    command = inp.context.get('servo_command')
+    if command is None:
+        return np.zeros(0, np.int64)
+    c = np.nan_to_num(np.asarray(command, np.float64))
+    return np.flatnonzero(np.abs(np.diff(c)) > 1e-7) + 1
+
+
 def servo_gate(det: Detection, inp: SensorInput, hold: float = SERVO_HOLD) -> Detection:
     """Drop the flags of updates ending within ``hold`` s after a change of the commanded
     servo angle (context ``servo_command``; unchanged where the scene has none).
@@ -128,12 +139,8 @@ def servo_gate(det: Detection, inp: SensorInput, hold: float = SERVO_HOLD) -> De
     Not a detector feature: the perception pipeline does not see the servo command. It
     belongs to the controller (which knows when it moves the servo) or to a pipeline input.
     """
-    command = inp.context.get('servo_command')
-    if command is None or not det.slip.any():
-        return det
-    c = np.nan_to_num(np.asarray(command, np.float64))
-    changes = np.flatnonzero(np.abs(np.diff(c)) > 1e-7) + 1
-    if not changes.size:
+    changes = servo_changes(inp)
+    if not changes.size or not det.slip.any():
         return det
     idx = np.asarray(det.sample_index)
     last = np.searchsorted(changes, idx, side='right') - 1  # latest change at or before
@@ -151,9 +158,16 @@ def robust_servo_gate_mode(inp: SensorInput) -> Detection:
 #: Detector modes by name.
 def sequential_mode(inp: SensorInput, params: SequentialParams | None = None) -> Detection:
     """Issue 26's sequential detector on the fast band power
-    (:mod:`forte_perception.slip.sequential`); flags are its slip events."""
+    (:mod:`forte_perception.slip.sequential`); flags are its slip events. Where the scene
+    records the servo command, its changes feed the detector's servo gate, as the
+    perception node's ``gripper/command`` does online."""
+    params = params or SequentialParams()
     detector = SequentialDetector(inp.fs, SlipParams().hop, params=params)
-    ends, slip, _ = detector.update(inp.filtered)
+    gate = ServoGate(int(round(params.servo_hold * inp.fs)))
+    for change in servo_changes(inp):
+        gate.moved(int(change))
+    ends = np.arange(detector.hop - 1, inp.filtered.shape[0], detector.hop)
+    ends, slip, _ = detector.update(inp.filtered, ends=ends, gated=gate.gated(ends))
     return Detection(ends, slip, detector.hop)
 
 

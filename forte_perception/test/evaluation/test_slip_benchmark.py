@@ -66,3 +66,22 @@ def test_a_mode_is_any_function_of_the_sensor_input():
 
     outcomes, _ = run_mode(scenes()[:1], never, repeats=1)
     assert not outcomes[0].detected.any() and outcomes[0].runs.shape == (0, 2)
+
+
+def test_sequential_mode_gates_with_the_scenes_servo_command():
+    """A scene that records its servo command: the sequential runner feeds its changes to
+    the servo gate (as the node does from gripper/command), so the ringing of a servo
+    step at sample 8000 alarms only where the scene has no command."""
+    from perception_signals import ringing_after_a_step
+
+    from forte_perception.evaluation.benchmark import SensorInput, sequential_mode
+
+    frames = ringing_after_a_step()
+    filtered = running_median(frames, 11)
+    command = np.full(frames.shape[0], 0.30)
+    command[8000:] = 0.30 - 0.0154  # a tightening at the ringing's first sample
+    blind = sequential_mode(SensorInput(frames, filtered, 2000.0, {}))
+    told = sequential_mode(SensorInput(frames, filtered, 2000.0, {'servo_command': command}))
+    late = np.asarray(blind.sample_index) >= 8000
+    assert np.asarray(blind.slip)[late].any()
+    assert not np.asarray(told.slip)[late].any()
