@@ -5,7 +5,10 @@ last 50), publishes ``tactile/state`` (forte_msgs/TactileState, reliable, keep l
 every force instant inside an input message and at its end (one state per 20-sample message
 at the default 100 Hz; a 200-sample message gives 10 states, so the force rate does not
 depend on the driver's batch size), serves ``perception/tare`` (forte_msgs/srv/Tare) and
-``perception/reset`` (std_srvs/srv/Trigger), and publishes ``/diagnostics`` at 1 Hz.
+``perception/reset`` (std_srvs/srv/Trigger), and publishes ``/diagnostics`` at 1 Hz. In
+``slip_mode: sequential`` it also subscribes ``gripper/command`` (forte_msgs/ServoCommand):
+each change of the commanded angle opens the sequential detector's servo gate
+(:mod:`forte_perception.slip.servo_gate`) at the pipeline sample of the command's stamp.
 
 Model identity: the force model's ``metadata['sensor']`` (what ``forte_train_force``
 recorded) is checked with :func:`forte_ros.sensor_identity.check_identity`, at load against
