@@ -474,9 +474,11 @@ class PerceptionPipeline:
         if len(res) and health.any_masked_since(first_index, self._slip_mask.decision_reach):
             psd_ok = ~health.masked(res.sample_index + shift, self._slip_mask.psd_reach)
         if self._sequential is not None:  # its events replace the PSD rule's flags
-            gated = self._servo_gate.gated(res.sample_index + shift)
-            _, events, state = self._sequential.update(filtered, psd_ok, res.sample_index,
-                                                       gated)
+            samples = res.sample_index + shift
+            settled = self._servo_gate.settled(samples)
+            settled = np.where(settled >= 0, settled - shift, -1)  # the detector's samples
+            _, events, state = self._sequential.update(
+                filtered, psd_ok, res.sample_index, self._servo_gate.gated(samples), settled)
         else:
             power = self._slipping.feed(filtered, res.sample_index)
         if len(res):

@@ -73,3 +73,23 @@ def ringing_after_a_step(n: int = 12000, at: int = 8000) -> np.ndarray:
     ring[:at] = 0.0
     ring[at + 60:] = 0.0
     return np.round(lsb + ring[:, None]) * QUANTUM
+
+
+def tightening(n: int, at: int) -> np.ndarray:
+    """A servo tightening's pressure from sample ``at`` [LSB], (n,): the level rises 60 LSB
+    over 15 ms (0.0154 rad at 1 rad/s) and the fingers ring at 25 Hz, 40 LSB, for 30 ms."""
+    k = np.arange(n) - at
+    ring = np.where((k >= 0) & (k < 60), 40.0 * np.sin(2 * np.pi * 25.0 * k / FS), 0.0)
+    return np.clip(k / 30.0, 0.0, 1.0) * 60.0 + ring
+
+
+def tightening_then_slip(n: int = 12000, at: int = 8000, slip_at: int | None = 8260,
+                         amplitude: float = 8.0) -> np.ndarray:
+    """Quantised noise on a held grip, a :func:`tightening` at ``at`` and (unless None) a
+    25 Hz stick-slip vibration of ``amplitude`` LSB on the left finger from ``slip_at``."""
+    rng = np.random.default_rng(2)
+    lsb = rng.normal(0.0, 1.0, (n, 6)) + 300.0 + tightening(n, at)[:, None]
+    if slip_at is not None:
+        t = np.arange(n - slip_at) / FS
+        lsb[slip_at:, :3] += (amplitude * np.sin(2 * np.pi * 25.0 * t))[:, None]
+    return np.round(lsb) * QUANTUM

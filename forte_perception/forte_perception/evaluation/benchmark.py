@@ -167,7 +167,8 @@ def sequential_mode(inp: SensorInput, params: SequentialParams | None = None) ->
     for change in servo_changes(inp):
         gate.moved(int(change))
     ends = np.arange(detector.hop - 1, inp.filtered.shape[0], detector.hop)
-    ends, slip, _ = detector.update(inp.filtered, ends=ends, gated=gate.gated(ends))
+    ends, slip, _ = detector.update(inp.filtered, ends=ends, gated=gate.gated(ends),
+                                    settled=gate.settled(ends))
     return Detection(ends, slip, detector.hop)
 
 

@@ -157,14 +157,17 @@ class SequentialDetector:
         self.vetoed = 0
 
     def update(self, filtered: np.ndarray, usable: np.ndarray | None = None,
-               ends: np.ndarray | None = None, gated: np.ndarray | None = None
+               ends: np.ndarray | None = None, gated: np.ndarray | None = None,
+               settled: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, SlippingUpdate]:
         """Consume filtered samples (n, 6); updates at every ``hop``-th sample, or at the
         sample indices ``ends`` (since the reset, inside this chunk) when given (the PSD
         detector's updates, in the pipeline); ``usable`` (m, 6): channels without an invalid
         value in reach; ``gated`` (m,): updates within ``servo_hold`` after a servo command
         change (:class:`~forte_perception.slip.servo_gate.ServoGate`), whose alarms are
-        vetoed.
+        vetoed; ``settled`` (m,): the sample (since the reset) from which the servo's own
+        motion is over, before which the level-shift veto does not look (its spans
+        abstain when they reach back past it; None or a negative value: no such sample).
 
         Returns
         -------
@@ -192,7 +195,8 @@ class SequentialDetector:
             if gated is not None and gated[i]:
                 return True
             levels = (self._cusum.level, high_level[i])
-            return self._veto(ext, origin, int(ends[i]), low[i], high[i], levels)
+            since = -1 if settled is None else int(settled[i])
+            return self._veto(ext, origin, (int(ends[i]), since), low[i], high[i], levels)
 
         result = self._cusum.update(low, veto)
         self.vetoed += result.vetoed
@@ -201,23 +205,26 @@ class SequentialDetector:
         self._history = ext[-2 * int(self.params.shift_length):]
         return ends, result.slip, state
 
-    def _veto(self, ext: np.ndarray, origin: int, end: int, low: np.ndarray,
+    def _veto(self, ext: np.ndarray, origin: int, samples: tuple[int, int], low: np.ndarray,
               high: np.ndarray, levels: tuple[np.ndarray, np.ndarray]) -> bool:
-        """The level-shift and hum vetoes of an alarm at sample ``end`` whose fast powers
-        are ``low`` and ``high`` (6,) [dB]; ``levels``: the bands' quiet levels [dB]."""
+        """The level-shift and hum vetoes of an alarm whose fast powers are ``low`` and
+        ``high`` (6,) [dB]; ``samples``: the alarm's last sample and the one the servo's
+        motion settled at (-1: none); ``levels``: the bands' quiet levels [dB]."""
         length = int(self.params.shift_length)
+        end, settled = samples
         stop = end - origin + 1
         if stop < 2 * length:
             return True  # too early to tell a slip from the start-up: no alarm
-        now = ext[stop - length:stop].mean(axis=0)
-        before = ext[stop - 2 * length:stop - length].mean(axis=0)
-        shift = np.abs(now - before)
-        amplitude = 2.0 * np.sqrt(2.0 * 10.0 ** (low / 10.0))
-        amplitude = np.where(np.isnan(amplitude), -np.inf, amplitude)  # unusable: no say
         fingers = [list(c) for c in FINGER_CHANNELS]
-        ratio = self.params.veto_ratio
-        if all(shift[c].max() > ratio * amplitude[c].max() for c in fingers):
-            return True
+        if settled < 0 or settled - origin <= stop - 2 * length:  # no servo step in the spans
+            now = ext[stop - length:stop].mean(axis=0)
+            before = ext[stop - 2 * length:stop - length].mean(axis=0)
+            shift = np.abs(now - before)
+            amplitude = 2.0 * np.sqrt(2.0 * 10.0 ** (low / 10.0))
+            amplitude = np.where(np.isnan(amplitude), -np.inf, amplitude)  # unusable: no say
+            ratio = self.params.veto_ratio
+            if all(shift[c].max() > ratio * amplitude[c].max() for c in fingers):
+                return True
         gain_low = 10.0 ** (low / 10.0) - 10.0 ** (levels[0] / 10.0)
         gain_high = 10.0 ** (high / 10.0) - 10.0 ** (levels[1] / 10.0)
         hum = 10.0 ** (self.params.hum_ratio_db / 10.0)

@@ -15,6 +15,14 @@ vetoes: the CUSUM restarts, and what remains after the hold is heard again.
 
 Cost of the gate: a slip that begins within ``hold`` after a tightening is heard up to
 ``hold`` later (the statistic restarts during it).
+
+The step also moves the pressure level by many LSB, and the level-shift veto compares the
+running means of the last two ``shift_length`` spans: for two spans after a step it would
+blame every alarm on it, although the step's leak into the band has decayed well within the
+hold (the band-pass's low corner at 10 Hz: a time constant of about 16 ms; the 0.0154 rad
+step at the slip speed of 1 rad/s takes 15 ms). :meth:`ServoGate.settled` tells the
+detector from which sample on the servo's own motion is over, and its level-shift veto
+abstains while its spans reach back before that sample (the hum veto still applies).
 """
 from __future__ import annotations
 
@@ -43,6 +51,7 @@ class ServoGate:
     def reset(self) -> None:
         """Forget every change."""
         self._intervals: deque[list[int]] = deque()  # [start, stop) in pipeline samples
+        self._last_stop = -1  # end of the latest forgotten interval
 
     def moved(self, sample: int) -> None:
         """The servo command changed, taking effect at pipeline sample ``sample``."""
@@ -59,14 +68,29 @@ class ServoGate:
         """Which of the ascending pipeline ``samples`` (m,) lie in a gated interval
         ((m,) bool); None when none can (nothing pending). Intervals wholly before the
         first sample are forgotten."""
-        intervals = self._intervals
-        samples = np.asarray(samples, np.int64)
-        if samples.size:
-            while intervals and intervals[0][1] <= samples[0]:
-                intervals.popleft()
-        if not intervals or not samples.size:
+        samples = self._forget(samples)
+        if not self._intervals or not samples.size:
             return None
         mask = np.zeros(samples.shape, bool)
-        for start, stop in intervals:
+        for start, stop in self._intervals:
             mask |= (samples >= start) & (samples < stop)
         return mask
+
+    def settled(self, samples: np.ndarray) -> np.ndarray:
+        """For each of the ascending pipeline ``samples`` (m,), the end of the latest gated
+        interval at or before it: the sample from which the servo's own motion is over
+        ((m,) int64; -1 before the first change)."""
+        samples = self._forget(samples)
+        out = np.full(samples.shape, self._last_stop, np.int64)
+        for _, stop in self._intervals:
+            out = np.where(samples >= stop, np.maximum(out, stop), out)
+        return out
+
+    def _forget(self, samples: np.ndarray) -> np.ndarray:
+        """Drop the intervals wholly before the first of ``samples``; ``samples`` as int64."""
+        samples = np.asarray(samples, np.int64)
+        intervals = self._intervals
+        if samples.size:
+            while intervals and intervals[0][1] <= samples[0]:
+                self._last_stop = max(self._last_stop, intervals.popleft()[1])
+        return samples

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from perception_signals import tightening
 
 from forte_perception.slip.sequential import SequentialDetector, SequentialParams
 from forte_ros.contract import QUANTUM
@@ -108,6 +109,34 @@ def test_alarms_in_the_servo_gate_are_vetoed_and_a_later_slip_is_heard():
     alarms = ends[slip]
     assert not ((alarms >= ONSET) & (alarms < later)).any()
     assert alarms.size and later <= alarms[0] <= later + 0.04 * FS
+
+
+@pytest.mark.parametrize('slip', [True, False])
+def test_a_slip_after_the_servo_gate_is_heard_through_the_step_it_follows(slip):
+    """A weak slip (8 LSB, one finger) starting 30 ms after the hold of a 60 LSB tightening:
+    told only which updates are gated, the level-shift veto blames the step for 0.2 s and
+    the slip is heard late; told also where the servo settled, it is heard within 40 ms.
+    The tightening alone never alarms either way."""
+    x = scene()
+    x += tightening(x.shape[0], ONSET)[:, None]
+    hold = int(SequentialParams().servo_hold * FS)
+    onset = ONSET + hold + 60
+    if slip:
+        x[:, :3] += sine(x.shape[0], onset, onset + 2000, 25.0, 8.0)[:, None]
+    ends = np.arange(3, x.shape[0], 4)
+    gated = (ends >= ONSET) & (ends < ONSET + hold)
+    settled = np.where(ends >= ONSET + hold, ONSET + hold, -1)
+    first = {}
+    for told_settled in (False, True):
+        _, alarms, _ = SequentialDetector(FS, 4).update(
+            np.round(x) * QUANTUM, gated=gated, settled=settled if told_settled else None)
+        assert not ((ends[alarms] >= ONSET) & (ends[alarms] < onset)).any()
+        first[told_settled] = ends[alarms][0] if alarms.any() else None
+    if not slip:
+        assert first == {False: None, True: None}
+        return
+    assert onset <= first[True] <= onset + 0.04 * FS
+    assert first[False] is None or first[False] > onset + 0.04 * FS
 
 
 def test_bad_parameters_are_refused():
