@@ -475,10 +475,10 @@ class PerceptionPipeline:
             psd_ok = ~health.masked(res.sample_index + shift, self._slip_mask.psd_reach)
         if self._sequential is not None:  # its events replace the PSD rule's flags
             samples = res.sample_index + shift
-            settled = self._servo_gate.settled(samples)
-            settled = np.where(settled >= 0, settled - shift, -1)  # the detector's samples
+            servo_stop = self._servo_gate.latest_stop(samples)
+            servo_stop = np.where(servo_stop >= 0, servo_stop - shift, -1)  # detector samples
             _, events, state = self._sequential.update(
-                filtered, psd_ok, res.sample_index, self._servo_gate.gated(samples), settled)
+                filtered, psd_ok, res.sample_index, self._servo_gate.gated(samples), servo_stop)
         else:
             power = self._slipping.feed(filtered, res.sample_index)
         if len(res):

@@ -168,7 +168,7 @@ def sequential_mode(inp: SensorInput, params: SequentialParams | None = None) ->
         gate.moved(int(change))
     ends = np.arange(detector.hop - 1, inp.filtered.shape[0], detector.hop)
     ends, slip, _ = detector.update(inp.filtered, ends=ends, gated=gate.gated(ends),
-                                    settled=gate.settled(ends))
+                                    servo_stop=gate.latest_stop(ends))
     return Detection(ends, slip, detector.hop)
 
 

@@ -24,9 +24,11 @@ restarts ``S``):
    gentle skirt, so a shift of many LSB leaks into it. Stick-slip moves the level little
    against its vibration (the static shear step per release is about 1/30 of the ringing).
    With ``A = sqrt(2 P)`` the amplitude of a sine of band power ``P`` (linear, per
-   channel), the alarm is vetoed when on every finger the largest shift of the running mean
-   of ``shift_length`` samples over as many samples exceeds ``veto_ratio`` times the largest
-   ``2 A``.
+   channel), the alarm is vetoed when on every finger the range (largest minus smallest)
+   of the running mean of ``shift_length`` samples over the last ``shift_length + 1``
+   positions exceeds ``veto_ratio`` times the largest ``2 A``. The range sees a sway's
+   swing at any phase; the difference of two adjacent span means is near zero where a
+   0.5-5 Hz sway turns, and let it alarm there.
 2. *Out-of-band vibration switching on* (motor hum at 62-150 Hz, only 4-6 dB down in the
    slip band's skirt at its lowest frequencies): the same fast estimate in ``high_band``
    (60-250 Hz) gains more power than the slip band. Per finger, the power gained (linear,
@@ -154,21 +156,25 @@ class SequentialDetector:
         self._cusum.reset()
         self._samples = 0
         self._history = np.zeros((0, N_CHANNELS))  # the last 2 shift_length samples
+        # servo gate across chunks: (last update gated, its fast power, the power before
+        # the current gated run)
+        self._gate_memory = (False, np.full(N_CHANNELS, np.nan), np.full(N_CHANNELS, np.nan))
         self.vetoed = 0
 
     def update(self, filtered: np.ndarray, usable: np.ndarray | None = None,
                ends: np.ndarray | None = None, gated: np.ndarray | None = None,
-               settled: np.ndarray | None = None
+               servo_stop: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, SlippingUpdate]:
         """Consume filtered samples (n, 6); updates at every ``hop``-th sample, or at the
         sample indices ``ends`` (since the reset, inside this chunk) when given (the PSD
         detector's updates, in the pipeline); ``usable`` (m, 6): channels without an invalid
         value in reach; ``gated`` (m,): updates within ``servo_hold`` after a servo command
         change (:class:`~forte_perception.slip.servo_gate.ServoGate`), whose alarms are
-        vetoed; ``settled`` (m,): the sample (since the reset) from which the servo's own
-        motion is over, before which the level-shift veto does not look (its spans
-        abstain when they reach back past it; None or a negative value: no such sample).
-
+        vetoed; ``servo_stop`` (m,): the sample (since the reset) where the latest gated
+        interval begun by each update ends (None or -1: none). When a finger's fast excess
+        was at or above the drift at the update before that interval began, the slip made
+        the servo move: neither the gate nor the level-shift veto (whose spans hold the
+        servo's step) drops its alarms.
         Returns
         -------
         sample_index : ndarray (m,)
@@ -191,12 +197,17 @@ class SequentialDetector:
         origin = first - self._history.shape[0]  # absolute index of ext[0]
         high_level = self._high_levels.track(high)  # (m, 6)
 
+        before = self._before_gates(low, gated)
+
         def veto(i: int) -> bool:  # the CUSUM's own level is the one in effect at update i
+            levels = (self._cusum.level, high_level[i])
+            servo = -1 if servo_stop is None else int(servo_stop[i])
+            if servo >= 0 and self._slip_before_servo(before[i]):
+                # the slip made the servo move: neither its gate nor its step is a veto
+                return self._veto(ext, origin, (int(ends[i]), servo), low[i], high[i], levels)
             if gated is not None and gated[i]:
                 return True
-            levels = (self._cusum.level, high_level[i])
-            since = -1 if settled is None else int(settled[i])
-            return self._veto(ext, origin, (int(ends[i]), since), low[i], high[i], levels)
+            return self._veto(ext, origin, (int(ends[i]), -1), low[i], high[i], levels)
 
         result = self._cusum.update(low, veto)
         self.vetoed += result.vetoed
@@ -205,21 +216,49 @@ class SequentialDetector:
         self._history = ext[-2 * int(self.params.shift_length):]
         return ends, result.slip, state
 
+    def _before_gates(self, low: np.ndarray, gated: np.ndarray | None) -> np.ndarray:
+        """Per update (m, 6) [dB]: the fast power ``low`` at the update before the latest
+        gated run began (the band as it was before the servo last moved); NaN before the
+        first run."""
+        out = np.empty(low.shape)
+        gated = np.zeros(low.shape[0], bool) if gated is None else np.asarray(gated, bool)
+        was_gated, last, before = self._gate_memory
+        for i, gate in enumerate(gated.tolist()):
+            if gate and not was_gated:
+                before = last
+            out[i] = before
+            was_gated, last = gate, low[i]
+        self._gate_memory = (was_gated, last, before)
+        return out
+
+    def _slip_before_servo(self, before: np.ndarray) -> bool:
+        """True if a finger's fast excess (mean over its channels with a level, of
+        ``before`` (6,) [dB] minus the CUSUM's levels) was at or above the drift: evidence
+        the servo cannot have caused."""
+        excess = before - self._cusum.level
+        for channels in FINGER_CHANNELS:
+            z = excess[list(channels)]
+            known = np.isfinite(z)
+            if known.any() and z[known].mean() >= self.params.cusum.drift:
+                return True
+        return False
+
     def _veto(self, ext: np.ndarray, origin: int, samples: tuple[int, int], low: np.ndarray,
               high: np.ndarray, levels: tuple[np.ndarray, np.ndarray]) -> bool:
         """The level-shift and hum vetoes of an alarm whose fast powers are ``low`` and
-        ``high`` (6,) [dB]; ``samples``: the alarm's last sample and the one the servo's
-        motion settled at (-1: none); ``levels``: the bands' quiet levels [dB]."""
+        ``high`` (6,) [dB]; ``samples``: the alarm's last sample and the end of the latest
+        servo gate begun by then (-1: none); ``levels``: the bands' quiet levels [dB]."""
         length = int(self.params.shift_length)
-        end, settled = samples
+        end, servo_stop = samples
         stop = end - origin + 1
         if stop < 2 * length:
             return True  # too early to tell a slip from the start-up: no alarm
         fingers = [list(c) for c in FINGER_CHANNELS]
-        if settled < 0 or settled - origin <= stop - 2 * length:  # no servo step in the spans
-            now = ext[stop - length:stop].mean(axis=0)
-            before = ext[stop - 2 * length:stop - length].mean(axis=0)
-            shift = np.abs(now - before)
+        if servo_stop < 0 or servo_stop - origin <= stop - 2 * length:  # no servo step in them
+            span = ext[stop - 2 * length:stop]
+            total = np.concatenate([np.zeros((1, N_CHANNELS)), np.cumsum(span, axis=0)])
+            running = (total[length:] - total[:-length]) / length  # (length + 1, 6)
+            shift = running.max(axis=0) - running.min(axis=0)
             amplitude = 2.0 * np.sqrt(2.0 * 10.0 ** (low / 10.0))
             amplitude = np.where(np.isnan(amplitude), -np.inf, amplitude)  # unusable: no say
             ratio = self.params.veto_ratio

@@ -16,13 +16,15 @@ vetoes: the CUSUM restarts, and what remains after the hold is heard again.
 Cost of the gate: a slip that begins within ``hold`` after a tightening is heard up to
 ``hold`` later (the statistic restarts during it).
 
-The step also moves the pressure level by many LSB, and the level-shift veto compares the
-running means of the last two ``shift_length`` spans: for two spans after a step it would
-blame every alarm on it, although the step's leak into the band has decayed well within the
-hold (the band-pass's low corner at 10 Hz: a time constant of about 16 ms; the 0.0154 rad
-step at the slip speed of 1 rad/s takes 15 ms). :meth:`ServoGate.settled` tells the
-detector from which sample on the servo's own motion is over, and its level-shift veto
-abstains while its spans reach back before that sample (the hum veto still applies).
+A slip can also be what made the controller move: its gross-slip reaction tightens 10-30
+ms after an onset that the fast band power is still accumulating. The servo cannot have
+caused what the band power showed before it moved, so when a finger's fast excess was
+already above the CUSUM's drift at the update before a gated interval began, that interval
+vetoes nothing: neither its gate, nor its step in the level-shift veto's spans (the step
+moves the level by many LSB, and the veto compares the running means of the last two
+``shift_length`` spans: it would blame the slip's alarms on the step for two spans after
+it). :meth:`ServoGate.latest_stop` tells the detector where each update's latest interval
+ends.
 """
 from __future__ import annotations
 
@@ -76,14 +78,14 @@ class ServoGate:
             mask |= (samples >= start) & (samples < stop)
         return mask
 
-    def settled(self, samples: np.ndarray) -> np.ndarray:
+    def latest_stop(self, samples: np.ndarray) -> np.ndarray:
         """For each of the ascending pipeline ``samples`` (m,), the end of the latest gated
-        interval at or before it: the sample from which the servo's own motion is over
-        ((m,) int64; -1 before the first change)."""
+        interval that began at or before it: from that sample on the servo's own motion is
+        over ((m,) int64; -1 before the first change)."""
         samples = self._forget(samples)
         out = np.full(samples.shape, self._last_stop, np.int64)
-        for _, stop in self._intervals:
-            out = np.where(samples >= stop, np.maximum(out, stop), out)
+        for start, stop in self._intervals:
+            out = np.where(samples >= start, np.maximum(out, stop), out)
         return out
 
     def _forget(self, samples: np.ndarray) -> np.ndarray:

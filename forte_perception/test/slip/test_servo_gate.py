@@ -7,7 +7,6 @@ from perception_signals import ringing_after_a_step, tightening_then_slip
 
 from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
 from forte_perception.slip.params import SlipParams
-from forte_perception.slip.sequential import SequentialParams
 from forte_perception.slip.servo_gate import ServoGate
 
 
@@ -28,22 +27,22 @@ def test_overlapping_changes_merge_and_old_intervals_are_forgotten():
     assert gate.gated(np.array([500, 600])) is None  # both intervals lie behind
 
 
-def test_settled_is_the_end_of_the_latest_interval_before_each_sample():
+def test_latest_stop_is_the_end_of_the_latest_interval_begun_by_each_sample():
     gate = ServoGate(100)
-    assert gate.settled(np.array([0, 50])).tolist() == [-1, -1]  # no change yet
+    assert gate.latest_stop(np.array([0, 50])).tolist() == [-1, -1]  # no change yet
     gate.moved(1000)
     gate.moved(1050)  # merged: [1000, 1150)
-    assert gate.settled(np.array([1100, 1150, 1400])).tolist() == [-1, 1150, 1150]
+    assert gate.latest_stop(np.array([999, 1000, 1400])).tolist() == [-1, 1150, 1150]
     gate.moved(2000)
     assert gate.gated(np.array([1500])).tolist() == [False]  # forgets [1000, 1150)
-    assert gate.settled(np.array([1500, 2099, 2100])).tolist() == [1150, 1150, 2100]
+    assert gate.latest_stop(np.array([1500, 1999, 2000])).tolist() == [1150, 1150, 2100]
 
 
 def test_hold_zero_turns_the_gate_off_and_bad_holds_are_refused():
     gate = ServoGate(0)
     gate.moved(10)
     assert gate.gated(np.arange(20)) is None
-    assert (gate.settled(np.arange(20)) == -1).all()
+    assert (gate.latest_stop(np.arange(20)) == -1).all()
     for bad in (-1, 2.5):
         with pytest.raises(ValueError, match='hold'):
             ServoGate(bad)
@@ -75,12 +74,12 @@ def test_pipeline_gates_only_the_sequential_mode(mode):
 
 
 @pytest.mark.parametrize('slip', [True, False])
-def test_pipeline_hears_a_slip_right_after_the_gate_through_the_tightening_step(slip):
+def test_pipeline_hears_a_slip_that_made_the_servo_move(slip):
     """Told of a tightening at its first sample, the sequential pipeline flags nothing for
-    the tightening alone, and flags an 8 LSB one-finger slip starting 30 ms after the gate's
-    hold within 50 ms (the step is no level shift of the slip's: the servo made it)."""
-    at, hold = 8000, int(round(SequentialParams().servo_hold * 2000))
-    onset = at + hold + 60
+    the tightening alone, and flags an 8 LSB one-finger slip that began 20 ms before it (the
+    controller's gross-slip reaction) within 50 ms of the slip's onset, inside the hold."""
+    at = 8000
+    onset = at - 40
     x = tightening_then_slip(at=at, slip_at=onset if slip else None)
     pipeline = PerceptionPipeline(PipelineConfig(slip=SlipParams(mode='sequential')))
     flagged = []
