@@ -345,9 +345,12 @@ class _ClosedLoop:
     def _step_machine(self, out, truth, stamp: float, t: float):
         """One state machine update on the chunk; its commands apply to the next chunk."""
         outputs = self.machine.step(self.inputs(out, truth, stamp), stamp)
+        previous = self.commands.servo
         self.commands.follow(outputs)
         if outputs.servo_changed:  # applies from the next chunk (the sequential mode's gate)
-            self.pipeline.servo_moved()
+            speed = self.commands.profile_velocity
+            self.pipeline.servo_moved(
+                motion=abs(self.commands.servo - previous) / speed if speed > 0 else None)
         if outputs.slip_reacted:
             self.log.reaction_times.append(t)
         if outputs.state == GraspState.LIFTING and math.isnan(self.log.lift_start):

@@ -37,6 +37,7 @@ Design choices (see docs/perception.md):
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -311,11 +312,14 @@ class PerceptionPipeline:
         """Replace the force model (takes effect at the next force instant)."""
         self.model = model
 
-    def servo_moved(self, sample: int | None = None) -> None:
+    def servo_moved(self, sample: int | None = None, motion: float | None = None) -> None:
         """The servo command changed, taking effect at pipeline sample ``sample`` (default:
-        the next one). The sequential mode vetoes its alarms for ``servo_hold`` after it
-        (:mod:`forte_perception.slip.servo_gate`); the other modes ignore it."""
-        self._servo_gate.moved(self._samples if sample is None else sample)
+        the next one); the servo needs ``motion`` seconds to get there (the step over the
+        profile velocity; None: unknown). The sequential mode vetoes its alarms for the
+        motion plus ``servo_hold`` after it (:mod:`forte_perception.slip.servo_gate`); the
+        other modes ignore it."""
+        samples = None if motion is None else int(math.ceil(motion * self.config.fs))
+        self._servo_gate.moved(self._samples if sample is None else sample, samples)
 
     def mark_gap(self) -> None:
         """Declare that samples were lost before the next chunk (see module notes)."""
@@ -475,10 +479,11 @@ class PerceptionPipeline:
             psd_ok = ~health.masked(res.sample_index + shift, self._slip_mask.psd_reach)
         if self._sequential is not None:  # its events replace the PSD rule's flags
             samples = res.sample_index + shift
-            servo_stop = self._servo_gate.latest_stop(samples)
-            servo_stop = np.where(servo_stop >= 0, servo_stop - shift, -1)  # detector samples
+            stop, known = self._servo_gate.latest(samples)
+            stop = np.where(stop >= 0, stop - shift, -1)  # in the detector's samples
             _, events, state = self._sequential.update(
-                filtered, psd_ok, res.sample_index, self._servo_gate.gated(samples), servo_stop)
+                filtered, psd_ok, res.sample_index, self._servo_gate.gated(samples),
+                (stop, known))
         else:
             power = self._slipping.feed(filtered, res.sample_index)
         if len(res):

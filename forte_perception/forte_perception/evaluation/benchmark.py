@@ -160,7 +160,8 @@ def sequential_mode(inp: SensorInput, params: SequentialParams | None = None) ->
     """Issue 26's sequential detector on the fast band power
     (:mod:`forte_perception.slip.sequential`); flags are its slip events. Where the scene
     records the servo command, its changes feed the detector's servo gate, as the
-    perception node's ``gripper/command`` does online."""
+    perception node's ``gripper/command`` does online (a recorded command has no speed: the
+    motions' durations are unknown)."""
     params = params or SequentialParams()
     detector = SequentialDetector(inp.fs, SlipParams().hop, params=params)
     gate = ServoGate(int(round(params.servo_hold * inp.fs)))
@@ -168,7 +169,7 @@ def sequential_mode(inp: SensorInput, params: SequentialParams | None = None) ->
         gate.moved(int(change))
     ends = np.arange(detector.hop - 1, inp.filtered.shape[0], detector.hop)
     ends, slip, _ = detector.update(inp.filtered, ends=ends, gated=gate.gated(ends),
-                                    servo_stop=gate.latest_stop(ends))
+                                    servo=gate.latest(ends))
     return Detection(ends, slip, detector.hop)
 
 

@@ -357,17 +357,22 @@ class PerceptionNode(Node):
 
     def _on_servo_command(self, msg: ServoCommand) -> None:
         """A changed servo command, mapped to the pipeline sample at its stamp (the stamp of
-        the latest processed sample is known; no stamp: the next sample)."""
+        the latest processed sample is known; no stamp: the next sample), with the time the
+        servo needs for the step at the command's profile velocity (unknown for the first
+        command and for the driver's default speed, 0)."""
         with self._lock:
-            if msg.position == self._last_servo_position:
+            previous = self._last_servo_position
+            if msg.position == previous:
                 return
             self._last_servo_position = msg.position
+            motion = (abs(msg.position - previous) / msg.profile_velocity
+                      if previous is not None and msg.profile_velocity > 0 else None)
             sample = None
             stamp_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
             if self._last_stamp is not None and stamp_ns > 0:
                 ahead = (stamp_ns - self._last_stamp[0]) * 1e-9 * self._sample_rate
                 sample = self._pipeline.samples_seen - 1 + int(round(ahead))
-            self._pipeline.servo_moved(sample)
+            self._pipeline.servo_moved(sample, motion)
 
     def _on_frames(self, msg: TactileFrames) -> None:
         t0 = time.perf_counter()

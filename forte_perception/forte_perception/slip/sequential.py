@@ -163,18 +163,20 @@ class SequentialDetector:
 
     def update(self, filtered: np.ndarray, usable: np.ndarray | None = None,
                ends: np.ndarray | None = None, gated: np.ndarray | None = None,
-               servo_stop: np.ndarray | None = None
+               servo: tuple[np.ndarray, np.ndarray] | None = None
                ) -> tuple[np.ndarray, np.ndarray, SlippingUpdate]:
         """Consume filtered samples (n, 6); updates at every ``hop``-th sample, or at the
         sample indices ``ends`` (since the reset, inside this chunk) when given (the PSD
         detector's updates, in the pipeline); ``usable`` (m, 6): channels without an invalid
         value in reach; ``gated`` (m,): updates within ``servo_hold`` after a servo command
         change (:class:`~forte_perception.slip.servo_gate.ServoGate`), whose alarms are
-        vetoed; ``servo_stop`` (m,): the sample (since the reset) where the latest gated
-        interval begun by each update ends (None or -1: none). When a finger's fast excess
-        was at or above the drift at the update before that interval began, the slip made
-        the servo move: neither the gate nor the level-shift veto (whose spans hold the
-        servo's step) drops its alarms.
+        vetoed; ``servo`` ((m,) int, (m,) bool): the sample (since the reset) where the
+        latest gated interval begun by each update ends (-1: none) and whether its motion
+        had a known duration (:meth:`~forte_perception.slip.servo_gate.ServoGate.latest`).
+        After a known motion's interval the level-shift veto's spans do not look into it.
+        When a finger's fast excess was at or above the drift at the update before the
+        interval began, the slip made the servo move: neither the gate nor the level-shift
+        veto (whose spans hold the servo's step) drops its alarms.
         Returns
         -------
         sample_index : ndarray (m,)
@@ -201,13 +203,14 @@ class SequentialDetector:
 
         def veto(i: int) -> bool:  # the CUSUM's own level is the one in effect at update i
             levels = (self._cusum.level, high_level[i])
-            servo = -1 if servo_stop is None else int(servo_stop[i])
-            if servo >= 0 and self._slip_before_servo(before[i]):
+            stop, known = (-1, False) if servo is None else (int(servo[0][i]), servo[1][i])
+            if stop >= 0 and self._slip_before_servo(before[i]):
                 # the slip made the servo move: neither its gate nor its step is a veto
-                return self._veto(ext, origin, (int(ends[i]), servo), low[i], high[i], levels)
+                return self._veto(ext, origin, (int(ends[i]), stop), low[i], high[i], levels)
             if gated is not None and gated[i]:
                 return True
-            return self._veto(ext, origin, (int(ends[i]), -1), low[i], high[i], levels)
+            stop = stop if known else -1  # an unknown motion may still move the level
+            return self._veto(ext, origin, (int(ends[i]), stop), low[i], high[i], levels)
 
         result = self._cusum.update(low, veto)
         self.vetoed += result.vetoed

@@ -7,7 +7,12 @@ import numpy as np
 import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from perception_signals import random_walk, ringing_after_a_step, slip_bursts
+from perception_signals import (
+    random_walk,
+    ringing_after_a_step,
+    slip_bursts,
+    tightening_then_slip,
+)
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -509,3 +514,39 @@ def test_sequential_mode_gates_alarms_after_a_servo_command(harness, told):
         assert flagged == []
     else:
         assert flagged and flagged[0] < 8000 + 200
+
+
+
+def _servo_command(position: float, sample: int, profile_velocity: float = 1.0):
+    """A ServoCommand stamped at ``sample``'s time (sample 0 at 100 s, 2 kHz)."""
+    from forte_msgs.msg import ServoCommand
+
+    command = ServoCommand(position=position, profile_velocity=profile_velocity)
+    nanoseconds = 100 * 10**9 + sample * 500_000
+    command.header.stamp.sec, command.header.stamp.nanosec = divmod(nanoseconds, 10**9)
+    return command
+
+
+@pytest.mark.parametrize('harness', [[Parameter('slip_mode', value='sequential')]],
+                         indirect=True)
+def test_sequential_mode_hears_a_slip_right_after_a_known_tightening(harness):
+    """Two gripper/commands at 1 rad/s: the node knows the second one's motion (0.0154 rad:
+    31 samples) and flags an 8 LSB slip beginning 30 ms after its gate within 50 ms."""
+    from forte_msgs.msg import ServoCommand
+    from forte_ros.qos import COMMANDS
+
+    commands = harness.peer.create_publisher(ServoCommand, 'gripper/command', COMMANDS)
+    deadline = time.monotonic() + 10.0
+    while commands.get_subscription_count() < 1:
+        assert time.monotonic() < deadline, 'the node does not follow gripper/command'
+        time.sleep(0.01)
+    onset = 8000 + 31 + 200 + 60
+    x = tightening_then_slip(at=8000, slip_at=onset)
+    sent = {6900: _servo_command(0.3, 7000), 7900: _servo_command(0.3 - 0.0154, 8000)}
+    for start in range(0, x.shape[0], CHUNK):
+        if start in sent:
+            commands.publish(sent[start])
+            time.sleep(0.3)
+        harness.send(x[start:start + CHUNK])
+    flagged = [s.sample_index for s in harness.states if s.slip and s.sample_index >= 7000]
+    assert flagged and onset <= flagged[0] <= onset + 100

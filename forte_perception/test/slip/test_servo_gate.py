@@ -27,22 +27,29 @@ def test_overlapping_changes_merge_and_old_intervals_are_forgotten():
     assert gate.gated(np.array([500, 600])) is None  # both intervals lie behind
 
 
-def test_latest_stop_is_the_end_of_the_latest_interval_begun_by_each_sample():
+def test_latest_is_the_end_of_the_latest_interval_begun_and_whether_its_motion_was_known():
     gate = ServoGate(100)
-    assert gate.latest_stop(np.array([0, 50])).tolist() == [-1, -1]  # no change yet
-    gate.moved(1000)
-    gate.moved(1050)  # merged: [1000, 1150)
-    assert gate.latest_stop(np.array([999, 1000, 1400])).tolist() == [-1, 1150, 1150]
-    gate.moved(2000)
+    stop, known = gate.latest(np.array([0, 50]))
+    assert stop.tolist() == [-1, -1] and not known.any()  # no change yet
+    gate.moved(1000, motion=30)  # [1000, 1130)
+    gate.moved(1050)  # unknown motion, merged: [1000, 1150), not known
+    stop, known = gate.latest(np.array([999, 1000, 1400]))
+    assert stop.tolist() == [-1, 1150, 1150] and known.tolist() == [False, False, False]
+    gate.moved(2000, motion=30)  # [2000, 2130), known
     assert gate.gated(np.array([1500])).tolist() == [False]  # forgets [1000, 1150)
-    assert gate.latest_stop(np.array([1500, 1999, 2000])).tolist() == [1150, 1150, 2100]
+    stop, known = gate.latest(np.array([1500, 1999, 2000, 2129, 2130]))
+    assert stop.tolist() == [1150, 1150, 2130, 2130, 2130]
+    assert known.tolist() == [False, False, True, True, True]
+    assert gate.gated(np.array([2129, 2130])).tolist() == [True, False]  # motion + hold
+    with pytest.raises(ValueError, match='motion'):
+        gate.moved(3000, motion=-1)
 
 
 def test_hold_zero_turns_the_gate_off_and_bad_holds_are_refused():
     gate = ServoGate(0)
     gate.moved(10)
     assert gate.gated(np.arange(20)) is None
-    assert (gate.latest_stop(np.arange(20)) == -1).all()
+    assert (gate.latest(np.arange(20))[0] == -1).all()
     for bad in (-1, 2.5):
         with pytest.raises(ValueError, match='hold'):
             ServoGate(bad)
@@ -92,3 +99,27 @@ def test_pipeline_hears_a_slip_that_made_the_servo_move(slip):
         assert flagged == []
         return
     assert flagged and onset <= flagged[0] <= onset + 100
+
+
+@pytest.mark.parametrize('motion', [0.015, None])
+def test_pipeline_hears_a_slip_after_a_known_motion_s_gate(motion):
+    """A tightening told with its motion (15 ms at the profile velocity): an 8 LSB slip
+    beginning 30 ms after the gate is flagged within 50 ms (the step is over and decayed,
+    the level-shift veto no longer blames it); told without its motion, the step stays in
+    the veto's spans and the slip is flagged later."""
+    at = 8000
+    gate_end = at + int(round((0.1 + (motion or 0.0)) * 2000))
+    onset = gate_end + 60
+    x = tightening_then_slip(at=at, slip_at=onset)
+    pipeline = PerceptionPipeline(PipelineConfig(slip=SlipParams(mode='sequential')))
+    flagged = []
+    for start in range(0, x.shape[0], 20):
+        if start == at:
+            pipeline.servo_moved(motion=motion)
+        if pipeline.process(x[start:start + 20]).slip:
+            flagged.append(start + 19)
+    assert flagged and flagged[0] >= onset
+    if motion is None:
+        assert flagged[0] > onset + 100
+    else:
+        assert flagged[0] <= onset + 100

@@ -112,18 +112,20 @@ def test_alarms_in_the_servo_gate_are_vetoed_and_a_later_slip_is_heard():
 
 
 @pytest.mark.parametrize('slip_before', [None, 60])
-def test_a_tightening_alone_never_alarms(slip_before):
-    """A 60 LSB tightening told to the gate raises no alarm, alone or 30 ms after a 0.3 LSB
-    vibration too weak for the drift (its ringing and step are the servo's)."""
+@pytest.mark.parametrize('known', [True, False])
+def test_a_tightening_alone_never_alarms(slip_before, known):
+    """A 60 LSB tightening (15 ms) told to the gate, its motion known or not, raises no
+    alarm, alone or 30 ms after a 0.3 LSB vibration too weak for the drift (its ringing and
+    step are the servo's)."""
     x = scene()
     x += tightening(x.shape[0], ONSET)[:, None]
     if slip_before is not None:
         x[:, :3] += sine(x.shape[0], ONSET - slip_before, ONSET, 25.0, 0.3)[:, None]
     ends = np.arange(3, x.shape[0], 4)
-    hold = int(SequentialParams().servo_hold * FS)
+    stop = ONSET + 30 + int(SequentialParams().servo_hold * FS)
     _, alarms, _ = SequentialDetector(FS, 4).update(
-        np.round(x) * QUANTUM, gated=(ends >= ONSET) & (ends < ONSET + hold),
-        servo_stop=np.where(ends >= ONSET, ONSET + hold, -1))
+        np.round(x) * QUANTUM, gated=(ends >= ONSET) & (ends < stop),
+        servo=(np.where(ends >= ONSET, stop, -1), np.full(ends.shape, known)))
     assert not alarms.any()
 
 
@@ -138,15 +140,15 @@ def test_a_slip_that_made_the_servo_move_is_not_gated():
     ends = np.arange(3, x.shape[0], 4)
     hold = int(SequentialParams().servo_hold * FS)
     gated = (ends >= step) & (ends < step + hold)
-    servo_stop = np.where(ends >= step, step + hold, -1)
+    servo = (np.where(ends >= step, step + hold, -1), np.zeros(ends.shape, bool))
     x = np.round(x) * QUANTUM
-    _, alarms, _ = SequentialDetector(FS, 4).update(x, gated=gated, servo_stop=servo_stop)
+    _, alarms, _ = SequentialDetector(FS, 4).update(x, gated=gated, servo=servo)
     assert alarms.any() and ONSET <= ends[alarms][0] <= ONSET + 0.05 * FS
     detector, chunked = SequentialDetector(FS, 4), []  # the same in 20-sample chunks
     for start in range(0, x.shape[0], 20):
         rows = slice(start // 4, (start + 20) // 4)
         chunked.append(detector.update(x[start:start + 20], gated=gated[rows],
-                                       servo_stop=servo_stop[rows])[1])
+                                       servo=(servo[0][rows], servo[1][rows]))[1])
     assert np.array_equal(np.concatenate(chunked), alarms)
 
 
