@@ -224,9 +224,13 @@ class SequentialDetector:
         gated run began (the band as it was before the servo last moved); NaN before the
         first run."""
         out = np.empty(low.shape)
-        gated = np.zeros(low.shape[0], bool) if gated is None else np.asarray(gated, bool)
         was_gated, last, before = self._gate_memory
-        for i, gate in enumerate(gated.tolist()):
+        if gated is None or not np.any(gated):  # the common case: no servo change near
+            out[:] = before
+            if low.shape[0]:
+                self._gate_memory = (False, low[-1], before)
+            return out
+        for i, gate in enumerate(np.asarray(gated, bool).tolist()):
             if gate and not was_gated:
                 before = last
             out[i] = before
