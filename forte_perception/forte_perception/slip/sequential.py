@@ -177,6 +177,7 @@ class SequentialDetector:
         When a finger's fast excess was at or above the drift at the update before the
         interval began, the slip made the servo move: neither the gate nor the level-shift
         veto (whose spans hold the servo's step) drops its alarms.
+
         Returns
         -------
         sample_index : ndarray (m,)

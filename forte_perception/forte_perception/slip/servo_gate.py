@@ -16,8 +16,8 @@ vetoes: the CUSUM restarts, and what remains after the hold is heard again.
 Cost of the gate: a slip that begins within ``hold`` after a tightening is heard up to
 ``hold`` later (the statistic restarts during it).
 
-The step also moves the pressure level by many LSB, and the level-shift veto compares the
-running means over its last two ``shift_length`` spans: for two spans after a step it
+The step also moves the pressure level by many LSB, and the level-shift veto looks at the
+running mean over its last two ``shift_length`` spans: for two spans after a step it
 blames every alarm on it. Where the motion's duration is known (the command's step over
 its profile velocity: the perception node's ``gripper/command``, the closed loop's
 commands) the gate covers the motion plus ``hold``; after that the step is over and its
