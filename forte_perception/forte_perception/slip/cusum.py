@@ -83,7 +83,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from forte_perception.slip.state import update_quiet_levels
+from forte_perception.slip.state import QuietLevels, finger_means
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
 
 __all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'expected_delay']
@@ -207,21 +207,19 @@ class BandPowerCusum:
         self.dt = float(dt)
         self._block = max(1, int(round(self.params.level_block / self.dt)))
         self._clear = int(math.ceil(self.params.clear_time / self.dt - 1e-9))
-        self._beta = 1.0 - math.exp(-self._block * self.dt / self.params.level_tau)
+        self._levels = QuietLevels(
+            self._block, 1.0 - math.exp(-self._block * self.dt / self.params.level_tau))
         self.reset()
 
     def reset(self) -> None:
         """Forget everything, levels included: the next update is update 0 again."""
-        self._updates = 0
-        self._level = np.full(N_CHANNELS, np.nan)
+        self._levels.reset()
         self._fingers = [_Finger(channels=tuple(c)) for c in FINGER_CHANNELS]
-        self._block_y: list[np.ndarray] = []
-        self._block_quiet: list[np.ndarray] = []
 
     @property
     def level(self) -> np.ndarray:
         """Quiet level per channel [dB]; NaN before its first block."""
-        return self._level.copy()
+        return self._levels.level.copy()
 
     def update(self, psd_db: np.ndarray, veto: Callable[[int], bool] | None = None
                ) -> CusumResult:
@@ -239,13 +237,9 @@ class BandPowerCusum:
         out = CusumResult(np.full((m, 2), np.nan), np.full((m, 2), np.nan),
                           np.zeros((m, 2), bool), np.zeros((m, 2), bool), np.zeros(m, bool))
         pos = 0
-        while pos < m:
-            block_end = (self._updates // self._block + 1) * self._block
-            stop = min(m, pos + block_end - self._updates)
+        while pos < m:  # segments of constant quiet levels, up to a block's end
+            stop = self._levels.segment_stop(pos, m)
             self._segment(y, pos, stop, out, veto)
-            self._updates += stop - pos
-            if self._updates == block_end:
-                self._close_block()
             pos = stop
         return out
 
@@ -253,24 +247,25 @@ class BandPowerCusum:
     def _segment(self, y: np.ndarray, lo: int, hi: int, out: CusumResult,
                  veto: Callable[[int], bool] | None) -> None:
         seg = y[lo:hi]
-        z = seg - self._level  # NaN where the channel is unusable or has no level yet
-        usable = np.isfinite(z)
-        out.active[lo:hi] = usable.any(axis=1) | np.isfinite(self._level).any()
+        level = self._levels.level
+        z = seg - level  # NaN where the channel is unusable or has no level yet
+        out.active[lo:hi] = np.isfinite(z).any(axis=1) | np.isfinite(level).any()
+        excess = finger_means(z)  # NaN: the finger has no usable channel
         quiet = np.zeros(seg.shape, bool)
         for f, finger in enumerate(self._fingers):
-            ch = list(finger.channels)
-            count = usable[:, ch].sum(axis=1)
-            total = np.where(usable[:, ch], z[:, ch], 0.0).sum(axis=1)
-            zbar = np.where(count > 0, total / np.maximum(count, 1), np.nan)
+            zbar = excess[:, f]
             out.excess[lo:hi, f] = zbar
-            x = np.where(count > 0, (zbar - self.params.drift) * self.dt, 0.0)
+            x = np.where(np.isnan(zbar), 0.0, (zbar - self.params.drift) * self.dt)
             s, slipping, alarm = self._run(finger, x, zbar, lo, veto, out)
             out.statistic[lo:hi, f] = s
             out.slipping[lo:hi, f] = slipping
             out.alarm[lo:hi, f] = alarm
-            quiet[:, ch] = (~slipping & (s == 0.0))[:, None]
-        self._block_y.append(seg)
-        self._block_quiet.append(quiet & np.isfinite(seg))
+            quiet[:, list(finger.channels)] = (~slipping & (s == 0.0))[:, None]
+        self._levels.record(np.where(quiet & np.isfinite(seg), seg, np.nan))
+        if self._levels.updates % self._block == 0:  # a block closed: new levels
+            for finger in self._fingers:
+                if not finger.slipping:  # S = C - M; re-base so that C stays small
+                    finger.c, finger.m = finger.c - finger.m, 0.0
 
     def _run(self, finger: _Finger, x: np.ndarray, zbar: np.ndarray, offset: int,
              veto: Callable[[int], bool] | None, out: CusumResult
@@ -330,13 +325,3 @@ class BandPowerCusum:
             return int(hit[0])
         finger.below = int(run[-1]) if run.size else finger.below
         return None
-
-    def _close_block(self) -> None:
-        """Update the quiet levels from the finished block; re-base the statistics."""
-        y = np.concatenate(self._block_y)
-        quiet = np.concatenate(self._block_quiet)
-        update_quiet_levels(self._level, np.where(quiet, y, np.nan), self._beta)
-        for finger in self._fingers:
-            if not finger.slipping:  # S = C - M; re-base so that C stays small
-                finger.c, finger.m = finger.c - finger.m, 0.0
-        self._block_y, self._block_quiet = [], []

@@ -56,6 +56,7 @@ from forte_perception.slip.state import (
     SlippingParams,
     SlippingState,
     SlippingUpdate,
+    finger_means,
     quantisation_floor,
 )
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
@@ -243,13 +244,8 @@ class SequentialDetector:
         """True if a finger's fast excess (mean over its channels with a level, of
         ``before`` (6,) [dB] minus the CUSUM's levels) was at or above the drift: evidence
         the servo cannot have caused."""
-        excess = before - self._cusum.level
-        for channels in FINGER_CHANNELS:
-            z = excess[list(channels)]
-            known = np.isfinite(z)
-            if known.any() and z[known].mean() >= self.params.cusum.drift:
-                return True
-        return False
+        excess = finger_means((before - self._cusum.level)[None, :])[0]
+        return bool((excess >= self.params.cusum.drift).any())  # NaN: no say
 
     def _veto(self, ext: np.ndarray, origin: int, samples: tuple[int, int], low: np.ndarray,
               high: np.ndarray, levels: tuple[np.ndarray, np.ndarray]) -> bool:

@@ -61,7 +61,7 @@ from scipy.signal import butter, sosfilt, sosfilt_zi
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, QUANTUM
 
 __all__ = ['BandPower', 'QuietLevels', 'SlippingParams', 'SlippingState', 'SlippingUpdate',
-           'quantisation_floor', 'update_quiet_levels']
+           'finger_means', 'quantisation_floor', 'update_quiet_levels']
 
 
 @dataclass(frozen=True)
@@ -351,16 +351,7 @@ class SlippingState:
 
     def _excess(self, power: np.ndarray, ok: np.ndarray) -> np.ndarray:
         """Mean excess of each finger's usable channels with a level, (k, 2); NaN if none."""
-        z = np.where(ok, power - self.levels.level, np.nan)  # NaN: unusable or no level yet
-        known = np.isfinite(z)
-        total = np.where(known, z, 0.0)
-        excess = np.full((z.shape[0], 2), np.nan)
-        for f, channels in enumerate(FINGER_CHANNELS):
-            c = list(channels)
-            count = known[:, c].sum(axis=1)
-            excess[:, f] = np.where(count > 0, total[:, c].sum(axis=1) / np.maximum(count, 1),
-                                    np.nan)
-        return excess
+        return finger_means(np.where(ok, power - self.levels.level, np.nan))
 
     def _run(self, excess: np.ndarray, events: np.ndarray) -> np.ndarray:
         """The hysteresis over k updates (Python floats: a few microseconds an update)."""
@@ -383,6 +374,19 @@ class SlippingState:
         self._slipping = np.array(slipping, bool)
         self._below = np.array(below, int)
         return states
+
+
+def finger_means(values: np.ndarray) -> np.ndarray:
+    """Per finger, the mean of its channels' finite values: (k, 6) -> (k, 2); NaN where a
+    finger has none (NaN or inf: unusable, or no quiet level yet)."""
+    known = np.isfinite(values)
+    total = np.where(known, values, 0.0)
+    means = np.full((values.shape[0], 2), np.nan)
+    for f, channels in enumerate(FINGER_CHANNELS):
+        c = list(channels)
+        count = known[:, c].sum(axis=1)
+        means[:, f] = np.where(count > 0, total[:, c].sum(axis=1) / np.maximum(count, 1), np.nan)
+    return means
 
 
 def quantisation_floor(factor: float, band: tuple[float, float], fs: float) -> float:
