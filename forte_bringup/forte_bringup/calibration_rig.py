@@ -24,7 +24,6 @@ procedure's task on a SingleThreadedExecutor: no callback blocks.
 from __future__ import annotations
 
 import time
-from typing import Any
 
 from geometry_msgs.msg import WrenchStamped
 from lifecycle_msgs.msg import State, Transition
@@ -44,7 +43,7 @@ from forte_bringup.procedures.load_cell import wrench_component
 from forte_bringup.procedures.recording import RecordingBuffer
 from forte_driver.replay.bags import BagWriter, TopicSpec
 from forte_msgs.msg import SensorInfo, ServoCommand, TactileFrames
-from forte_ros.contract import CHANNEL_NAMES
+from forte_ros.contract import CHANNEL_NAMES, stamp_ns
 from forte_ros.qos import COMMANDS, LOAD_CELL, SENSOR_INFO, reliable
 from forte_ros.sensor_identity import SensorIdentity
 
@@ -59,10 +58,6 @@ LOAD_WAIT = 5.0
 #: Simulation: after the scene stops, its messages still queued are discarded until none
 #: arrived for this long [s] (however far behind the subscriptions are).
 DRAIN_TIME = 0.1
-
-
-def _stamp_ns(stamp: Any) -> int:
-    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
 class RosCalibrationRig:
@@ -154,7 +149,7 @@ class RosCalibrationRig:
         if tuple(message.channel_names) != CHANNEL_NAMES:
             self.buffer.add_problem(f'frames with channel order {list(message.channel_names)}')
             return
-        self.buffer.add_frames(_stamp_ns(message.header.stamp), message.first_sequence,
+        self.buffer.add_frames(stamp_ns(message.header.stamp), message.first_sequence,
                                message.sample_period, message.data)
         self._resolve('frames', self.buffer.count)
 
@@ -163,7 +158,7 @@ class RosCalibrationRig:
             return
         self._joint = float(message.position[0])
         if self.buffer is not None:
-            self.buffer.add_joint(_stamp_ns(message.header.stamp), self._joint)
+            self.buffer.add_joint(stamp_ns(message.header.stamp), self._joint)
         self._resolve('joint', 1)
 
     def _on_load(self, message: WrenchStamped) -> None:
@@ -178,7 +173,7 @@ class RosCalibrationRig:
             return
         self._last_load_wall = time.monotonic()
         if self.buffer is not None:
-            stamp = _stamp_ns(message.header.stamp)
+            stamp = stamp_ns(message.header.stamp)
             self.buffer.add_load(stamp, value)
             self._resolve('load', stamp)
 

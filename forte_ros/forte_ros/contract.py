@@ -46,6 +46,12 @@ RIGHT_FINGER_JOINT = 'forte_right_finger_joint'
 JOINT_NAMES = (LEFT_FINGER_JOINT, RIGHT_FINGER_JOINT)
 
 
+def stamp_ns(stamp) -> int:
+    """A ``builtin_interfaces/Time`` (anything with ``sec`` and ``nanosec``) in integer
+    nanoseconds: the time unit of the contract's stamps, without float rounding."""
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
 def prefixed(name: str, prefix: str = '') -> str:
     """``name`` (a frame or joint base name) with the TF / joint-name ``prefix`` prepended.
 

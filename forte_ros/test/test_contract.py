@@ -70,3 +70,14 @@ def test_importing_the_contract_loads_no_ros():
             'print(loaded); sys.exit(bool(loaded))')
     result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_stamp_ns_is_exact_integer_nanoseconds():
+    """builtin_interfaces/Time (sec, nanosec) -> ns without float rounding: at 1.8e9 s a
+    double has a 256 ns step, so a float conversion would lose the last digits."""
+    from builtin_interfaces.msg import Time
+
+    assert contract.stamp_ns(Time(sec=0, nanosec=0)) == 0
+    assert contract.stamp_ns(Time(sec=104, nanosec=500_000)) == 104_000_500_000
+    assert contract.stamp_ns(Time(sec=1_800_000_000, nanosec=999_999_999)) \
+        == 1_800_000_000_999_999_999

@@ -66,7 +66,7 @@ from forte_perception.channel_health import channel_report
 from forte_perception.force import ForceModel
 from forte_perception.pipeline import PerceptionOutput, PerceptionPipeline, PipelineConfig
 from forte_ros import run_node
-from forte_ros.contract import BASE_FRAME, CHANNEL_NAMES, prefixed
+from forte_ros.contract import BASE_FRAME, CHANNEL_NAMES, prefixed, stamp_ns
 from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status, node_path
 from forte_ros.parameter_table import ParameterSpec, parameter_table, replace_fields
 from forte_ros.parameters import declare_table, parameter_update, read_table
@@ -368,9 +368,9 @@ class PerceptionNode(Node):
             motion = (abs(msg.position - previous) / msg.profile_velocity
                       if previous is not None and msg.profile_velocity > 0 else None)
             sample = None
-            stamp_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-            if self._last_stamp is not None and stamp_ns > 0:
-                ahead = (stamp_ns - self._last_stamp[0]) * 1e-9 * self._sample_rate
+            stamp = stamp_ns(msg.header.stamp)
+            if self._last_stamp is not None and stamp > 0:
+                ahead = (stamp - self._last_stamp[0]) * 1e-9 * self._sample_rate
                 sample = self._pipeline.samples_seen - 1 + int(round(ahead))
             self._pipeline.servo_moved(sample, motion)
 
@@ -400,7 +400,7 @@ class PerceptionNode(Node):
                 return
             self.counters['samples'] += count
             period = msg.sample_period if msg.sample_period > 0 else 1.0 / self._sample_rate
-            start_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            start_ns = stamp_ns(msg.header.stamp)
             frame_id = msg.header.frame_id or self._frame_id
             states = []
             # one state per force instant inside the message (and one at its end), so the
@@ -413,13 +413,13 @@ class PerceptionNode(Node):
             begin = 0
             for end in ends:
                 out = self._pipeline.process(frames[begin:end])
-                stamp_ns = start_ns + int(round((end - 1) * period * 1e9))
-                states.append(self._to_message(out, stamp_ns, frame_id))
+                sample_ns = start_ns + int(round((end - 1) * period * 1e9))
+                states.append(self._to_message(out, sample_ns, frame_id))
                 if out.slip:
                     self.counters['slip_messages'] += 1
                 begin = end
             self._last_output = out
-            self._last_stamp = (stamp_ns, frame_id)
+            self._last_stamp = (sample_ns, frame_id)
             result = self._pipeline.tare_result
             if result is not None and self._tare_future is not None and \
                     not self._tare_future.done():
@@ -429,11 +429,11 @@ class PerceptionNode(Node):
         self.counters['published'] += len(states)
         self._processing.append(time.perf_counter() - t0)
 
-    def _to_message(self, out: PerceptionOutput, stamp_ns: int, frame_id: str,
+    def _to_message(self, out: PerceptionOutput, sample_ns: int, frame_id: str,
                     valid: bool | None = None) -> TactileState:
         msg = TactileState()
-        msg.header.stamp.sec = int(stamp_ns // 10**9)
-        msg.header.stamp.nanosec = int(stamp_ns % 10**9)
+        msg.header.stamp.sec = int(sample_ns // 10**9)
+        msg.header.stamp.nanosec = int(sample_ns % 10**9)
         msg.header.frame_id = frame_id
         msg.sample_index = max(0, int(out.sample_index))
         msg.force = float(out.force)
@@ -462,8 +462,8 @@ class PerceptionNode(Node):
             if age < self._stale_timeout or self._last_output is None:
                 return
             out = self._last_output
-            stamp_ns, frame_id = self._last_stamp
-            state = self._to_message(out, stamp_ns, frame_id, valid=False)
+            sample_ns, frame_id = self._last_stamp
+            state = self._to_message(out, sample_ns, frame_id, valid=False)
             state.slip = False
             state.force_valid = False
             self.counters['stale_states'] += 1
