@@ -474,11 +474,11 @@ class PerceptionPipeline:
         res = self._slip.update(filtered)
         self._slip_mask.record(filtered, res)
         shift = first_index - (self._slip.samples_seen - n)
+        samples = res.sample_index + shift  # the updates' last samples, pipeline indices
         psd_ok = None
         if len(res) and health.any_masked_since(first_index, self._slip_mask.decision_reach):
-            psd_ok = ~health.masked(res.sample_index + shift, self._slip_mask.psd_reach)
+            psd_ok = ~health.masked(samples, self._slip_mask.psd_reach)
         if self._sequential is not None:  # its events replace the PSD rule's flags
-            samples = res.sample_index + shift
             stop, known = self._servo_gate.latest(samples)
             stop = np.where(stop >= 0, stop - shift, -1)  # in the detector's samples
             _, events, state = self._sequential.update(
@@ -489,7 +489,7 @@ class PerceptionPipeline:
         if len(res):
             active = bool(res.active[-1])
             if psd_ok is not None:
-                usable = ~health.masked(res.sample_index + shift, self._slip_mask.decision_reach)
+                usable = ~health.masked(samples, self._slip_mask.decision_reach)
                 self._slip_mask.apply(res, usable, psd_ok)
                 active &= bool(usable[-1, :3].any() or usable[-1, 3:].any())
             if self._sequential is not None:
@@ -502,7 +502,7 @@ class PerceptionPipeline:
             out.psd_max_db = res.psd_max_db[-1].copy()
             out.finger_variance = res.finger_variance[-1].copy()
             out.slip_active = active
-            out.slip_sample_index = int(res.sample_index[-1]) + shift
+            out.slip_sample_index = int(samples[-1])
         elif self._slip.updates == 0:  # restarted, no update yet: nothing is known to slip
             out.slip_active = out.slipping = False
             out.finger_slipping = np.zeros(2, bool)
