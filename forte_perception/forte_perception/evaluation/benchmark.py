@@ -155,7 +155,6 @@ def robust_servo_gate_mode(inp: SensorInput) -> Detection:
     return servo_gate(robust_mode(inp), inp)
 
 
-#: Detector modes by name.
 def sequential_mode(inp: SensorInput, params: SequentialParams | None = None) -> Detection:
     """Issue 26's sequential detector on the fast band power
     (:mod:`forte_perception.slip.sequential`); flags are its slip events. Where the scene
@@ -173,6 +172,7 @@ def sequential_mode(inp: SensorInput, params: SequentialParams | None = None) ->
     return Detection(ends, slip, detector.hop)
 
 
+#: Detector modes by name.
 MODES: dict[str, Callable[[SensorInput], Detection]] = {
     'paper': paper_mode, 'robust': robust_mode, 'robust_servo_gate': robust_servo_gate_mode,
     'cusum': cusum_mode, 'sequential': sequential_mode}
