@@ -198,7 +198,7 @@ LIFT_CHECK_PARAMETERS: dict[str, ParameterSpec] = _field_table((
     _spec('probe_settle', float, 's', 'wait after lowering before judging', 0.0, 10.0),
     _spec('probe_window', float, 's', 'averaging time of the shear index before / after the '
           'probe', MIN_DURATION, 5.0),
-    _spec('probe_unload', float, '', 'shear index change that means the table took load',
+    _spec('probe_unload', float, '', 'shear index fall that means the table took load',
           0.0, 2.0),
     _spec('use_wrench', bool, '', 'also require the wrist load to grow (needs arm/wrench)'),
     _spec('min_wrench_load', float, 'N', 'wrist load gained since the lift began',

@@ -125,9 +125,10 @@ def test_shear_index_is_distal_minus_root_of_both_fingers():
     assert shear_index(None) is None
 
 
-def set_down(unload: float, params: LiftCheckParams | None = None):
+def set_down(unload: float, params: LiftCheckParams | None = None, grip: float = 1.0):
     """A quiet, balanced lift, then the set-down probe: the fingers' shear pattern
-    (distal up, root down per newton of tangential load) drops by ``unload`` per finger."""
+    (distal up, root down per newton of tangential load) drops by ``unload`` per finger, and
+    every channel is scaled by ``grip`` (a tightening during the probe)."""
     monitor = LiftMonitor(params or LiftCheckParams())
     t = 10.0
     for _ in range(600):
@@ -135,7 +136,8 @@ def set_down(unload: float, params: LiftCheckParams | None = None):
         t += DT
     monitor.begin_probe()
     d, r = 0.6 * unload, 0.4 * unload  # distal falls, root rises: the difference by unload
-    unloaded = (EQUAL[0] - d, EQUAL[1], EQUAL[2] + r, EQUAL[3] - d, EQUAL[4], EQUAL[5] + r)
+    unloaded = tuple(grip * value for value in (EQUAL[0] - d, EQUAL[1], EQUAL[2] + r,
+                                                EQUAL[3] - d, EQUAL[4], EQUAL[5] + r))
     for k in range(80):
         pattern = EQUAL if k < 10 else unloaded
         monitor.update(t, pattern, False, True)
@@ -152,6 +154,16 @@ def test_set_down_probe_that_unloads_the_fingers_means_the_table_holds_the_objec
     verdict = set_down(0.003)
     assert not verdict.carried and 'table took load' in verdict.reason
     assert '-0.0060' in verdict.reason  # both fingers, distal - root
+
+
+def test_a_tightening_during_the_probe_does_not_deny_the_lift():
+    """A slip tightening while the probe lowers raises the whole pattern (by 60 % here: the
+    shear index by +0.084, 19x probe_unload); only a fall means the table took load. A 2 %
+    tightening over an unload of 0.012 still leaves a fall of 0.0094 > 0.0045."""
+    verdict = set_down(0.0, grip=1.6)
+    assert verdict.carried and '+0.0840 when set down' in verdict.reason
+    verdict = set_down(0.006, grip=1.02)
+    assert not verdict.carried and '-0.0094' in verdict.reason
 
 
 def test_slip_while_holding_does_not_deny_the_lift():

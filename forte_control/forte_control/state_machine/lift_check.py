@@ -14,7 +14,8 @@ what they were measured on: docs/control.md, "Lift verification"):
    still, only gravity can make the object slip, i.e. it hangs from the fingers.
 3. **A carried object goes down with the fingers; a resting one unloads them.** The set-down
    probe lifts ``probe_distance`` more, holds and lowers back; the shear index (sum over fingers
-   of distal - root) must not change by more than ``probe_unload``.
+   of distal - root) must not fall by more than ``probe_unload``. Only a fall means the table
+   took load: a rise is more grip (a slip tightening during the probe) or more load.
 
 Rules 1 and 3 compare levels, so they are measured from the open gripper: the finger levels
 of the first ``balance_window`` of the grasp (:class:`OpenGripperLevels`) are the zero of the
@@ -65,7 +66,7 @@ class LiftCheckParams:
     probe_distance: float = 0.002       # set-down probe: lift beyond, then lower this [m]
     probe_settle: float = 0.4           # wait after lowering before judging [s]
     probe_window: float = 0.3           # averaging of the shear index before / after [s]
-    probe_unload: float = 0.0045        # shear index change that means unloaded [normalised]
+    probe_unload: float = 0.0045        # shear index fall that means unloaded [normalised]
     use_wrench: bool = False            # require the wrist load below (needs wrench input)
     min_wrench_load: float = 0.1        # wrist load gained since the lift began [N]
     wrench_timeout: float = 0.1         # wrench freshness bound [s]
@@ -341,7 +342,7 @@ class LiftMonitor:
         evidence = f'{pattern} equal, no slip in the last {p.quiet_time:g} s of the lift'
         if self._probe_reference is not None:
             change = self._mean_shear() - self._probe_reference
-            if abs(change) > p.probe_unload:
+            if change < -p.probe_unload:
                 return LiftVerdict(False, f'{evidence}; set down {p.probe_distance * 1000:g} mm'
                                    f', shear index changed {change:+.4f}: the object does not '
                                    'hang from the fingers (the table took load)')
