@@ -38,8 +38,20 @@ usable at an update (a masked window), is left out of its finger's mean.
   hold raises nothing when the power did not rise);
 - *held* while ``e_f >= margin``;
 - *cleared* once ``e_f < margin`` has held for ``clear_time`` seconds (hysteresis against
-  the dips of a stick-slip train between releases). A finger with no usable channel keeps
-  its state (unknown is not "stopped").
+  the dips of a stick-slip train between releases), or once its ringing decays freely (see
+  below). A finger with no usable channel keeps its state (unknown is not "stopped").
+
+**Free decay.** A slide is a train of releases, each ringing the finger's lightly damped
+bending mode (damping 0.07-0.12). When the train stops, the ringing decays at ``2 zeta
+omega``: 53 dB/s at 14 Hz, damping 0.07, so 20-30 dB of excess need 0.4-0.6 s to fall to
+the margin, while the slide ended with its last release. What the margin cannot tell, the
+time course can: a *release* is a rise of ``e_f`` by ``release_rise`` (3 dB) over its
+lowest value since the previous release; the finger is cleared when none has come for
+``decay_time`` (0.15 s: longer than the 0.12 s gap of a 10 Hz train) and ``e_f`` lies
+``decay_drop`` (10 dB) below its largest value of the last ``decay_time + window`` (the
+window delays the excess). A release that damps the ringing instead of feeding it looks
+like a decay; the next release then lifts ``e_f`` again, and a finger cleared by the decay
+rule is raised again by a release within ``decay_time + window`` of its clear.
 
 The state can only be raised by an event, so on quiet holds and distractors it is raised at
 most as often as the detector has false events. A slide that outlasts a tightening keeps it
@@ -52,6 +64,7 @@ for bit.
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,6 +72,11 @@ from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import butter, sosfilt, sosfilt_zi
 
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, QUANTUM
+
+#: Each finger's channels, (2, 3): one gather groups a (k, 6) array by finger.
+_FINGER_INDEX = np.array(FINGER_CHANNELS)
+#: Updates since the last release before the first one (longer than any decay time).
+_NO_RELEASE = 1 << 30
 
 __all__ = ['BandPower', 'QuietLevels', 'SlippingParams', 'SlippingState', 'SlippingUpdate',
            'finger_means', 'quantisation_floor', 'update_quiet_levels']
@@ -79,6 +97,16 @@ class SlippingParams:
         [dB] (4).
     clear_time : float
         ... and is cleared once the excess has stayed below ``margin`` this long [s] (0.05).
+    release_rise : float
+        A rise of a finger's excess by this much over its lowest value since the previous
+        such rise marks a release (fresh vibration) [dB] (3).
+    decay_time : float
+        A slipping finger is also cleared when no release has come for this long and its
+        excess has fallen ``decay_drop`` below its largest value of the last ``decay_time +
+        window``: the ringing decays freely, nothing excites it any more [s] (0.15; 0 turns
+        this off).
+    decay_drop : float
+        See ``decay_time`` [dB] (10).
     level_block : float
         Quiet levels are updated once per block of this length [s] (0.2).
     level_tau : float
@@ -91,6 +119,9 @@ class SlippingParams:
     order: int = 1
     margin: float = 4.0
     clear_time: float = 0.05
+    release_rise: float = 3.0
+    decay_time: float = 0.15
+    decay_drop: float = 10.0
     level_block: float = 0.2
     level_tau: float = 5.0
     floor_factor: float = 4.0
@@ -107,8 +138,10 @@ class SlippingParams:
             raise ValueError(f'slipping order must be an integer in 1..8, got {self.order}')
         if not math.isfinite(self.margin):
             raise ValueError(f'slipping margin must be finite, got {self.margin}')
-        if not (math.isfinite(self.clear_time) and self.clear_time >= 0):
-            raise ValueError(f'slipping clear_time must be >= 0 s, got {self.clear_time}')
+        for name in ('clear_time', 'release_rise', 'decay_time', 'decay_drop'):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f'slipping {name} must be >= 0 and finite, got {value}')
         low, high = band
         if not 0 < low < high < fs / 2:
             raise ValueError(f'band {band} Hz must lie inside (0, {fs / 2}) Hz')
@@ -277,6 +310,9 @@ class SlippingState:
         self.floor = quantisation_floor(self.params.floor_factor, band, fs)
         self._power = BandPower(fs, band, self.params.order, (self.window,), self.floor)
         self._clear = int(math.ceil(self.params.clear_time / update_interval - 1e-9))
+        self._decay = int(math.ceil(self.params.decay_time / update_interval - 1e-9))
+        self._decay_span = self._decay + int(math.ceil(self.params.window / update_interval
+                                                       - 1e-9))
         self.levels = QuietLevels(max(1, int(round(self.params.level_block / update_interval))),
                                   1.0 - math.exp(-self.params.level_block
                                                  / self.params.level_tau))
@@ -288,6 +324,15 @@ class SlippingState:
         self.levels.reset()
         self._slipping = np.zeros(2, bool)
         self._below = np.zeros(2, int)
+        self._updates = 0
+        # per finger: the update of its last clear by free decay, updates since the last
+        # release, the lowest excess since it, and the candidates for the largest excess of
+        # the decay span: (update, excess), decreasing
+        self._cleared = [-_NO_RELEASE, -_NO_RELEASE]
+        self._ringing = [False, False]
+        self._since = [_NO_RELEASE, _NO_RELEASE]
+        self._lowest = [math.inf, math.inf]
+        self._peaks: tuple[deque, deque] = (deque(), deque())
 
     @property
     def level(self) -> np.ndarray:
@@ -343,8 +388,9 @@ class SlippingState:
             seg = slice(pos, stop)
             out.level[seg] = self.levels.level
             out.excess[seg] = self._excess(p[seg], ok[seg])
-            out.slipping[seg] = self._run(out.excess[seg], events[seg])
-            quiet = ~np.repeat(out.slipping[seg], 3, axis=1) & ok[seg] & ~events[seg, None]
+            out.slipping[seg], ringing = self._run(out.excess[seg], events[seg])
+            busy = np.repeat(out.slipping[seg] | ringing, 3, axis=1)
+            quiet = ~busy & ok[seg] & ~events[seg, None]
             self.levels.record(np.where(quiet, p[seg], np.nan))
             pos = stop
         return out
@@ -353,40 +399,67 @@ class SlippingState:
         """Mean excess of each finger's usable channels with a level, (k, 2); NaN if none."""
         return finger_means(np.where(ok, power - self.levels.level, np.nan))
 
-    def _run(self, excess: np.ndarray, events: np.ndarray) -> np.ndarray:
-        """The hysteresis over k updates (Python floats: a few microseconds an update)."""
+    def _run(self, excess: np.ndarray, events: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The hysteresis over k updates (Python floats: a few microseconds an update): the
+        state (k, 2), and the updates of a finger cleared by free decay whose excess is still
+        at least the margin (k, 2), which are no quiet updates."""
         margin, need = self.params.margin, max(self._clear, 1)
-        slipping, below = self._slipping.tolist(), self._below.tolist()
+        slipping, below, ringing = self._slipping.tolist(), self._below.tolist(), self._ringing
         states = np.empty(excess.shape, bool)
+        tails = np.empty(excess.shape, bool)
+        first = self._updates
         for i, (row, event) in enumerate(zip(excess.tolist(), events.tolist())):
             for f in (0, 1):
                 value = row[f]
                 if value != value:  # NaN, no usable channel: unknown keeps the state
                     continue
-                if value >= margin:
-                    if event or slipping[f]:
-                        slipping[f], below[f] = True, 0
+                decayed, released = self._free_decay(f, first + i, value)
+                # a release soon after a clear by free decay: the slide goes on
+                again = released and first + i - self._cleared[f] <= self._decay_span
+                if value >= margin and (event or again or (slipping[f] and not decayed)):
+                    slipping[f], below[f], ringing[f] = True, 0, False
                 elif slipping[f]:
                     below[f] += 1
-                    if below[f] >= need:
-                        slipping[f], below[f] = False, 0
+                    if below[f] >= need or decayed:
+                        slipping[f], below[f], ringing[f] = False, 0, decayed
+                        if decayed:
+                            self._cleared[f] = first + i
+                ringing[f] = ringing[f] and value >= margin
             states[i] = slipping
+            tails[i] = ringing
+        self._updates = first + excess.shape[0]
         self._slipping = np.array(slipping, bool)
         self._below = np.array(below, int)
-        return states
+        return states, tails
+
+    def _free_decay(self, finger: int, update: int, value: float) -> tuple[bool, bool]:
+        """Track the releases and the decay span's largest excess of ``finger`` at
+        ``update`` (its excess ``value`` [dB]): (its ringing decays freely: no release for
+        ``decay_time`` and ``decay_drop`` below the span's largest excess; a release now)."""
+        p = self.params
+        if value >= self._lowest[finger] + p.release_rise:
+            self._since[finger], self._lowest[finger] = 0, value
+        else:
+            self._since[finger] += 1
+            self._lowest[finger] = min(self._lowest[finger], value)
+        peaks = self._peaks[finger]
+        while peaks and peaks[-1][1] <= value:
+            peaks.pop()
+        peaks.append((update, value))
+        while peaks[0][0] <= update - self._decay_span:
+            peaks.popleft()
+        since = self._since[finger]
+        return 0 < self._decay <= since and peaks[0][1] - value >= p.decay_drop, since == 0
 
 
 def finger_means(values: np.ndarray) -> np.ndarray:
     """Per finger, the mean of its channels' finite values: (k, 6) -> (k, 2); NaN where a
     finger has none (NaN or inf: unusable, or no quiet level yet)."""
-    known = np.isfinite(values)
-    total = np.where(known, values, 0.0)
-    means = np.full((values.shape[0], 2), np.nan)
-    for f, channels in enumerate(FINGER_CHANNELS):
-        c = list(channels)
-        count = known[:, c].sum(axis=1)
-        means[:, f] = np.where(count > 0, total[:, c].sum(axis=1) / np.maximum(count, 1), np.nan)
-    return means
+    grouped = values[:, _FINGER_INDEX]  # (k, 2, 3)
+    known = np.isfinite(grouped)
+    count = known.sum(axis=2)
+    total = np.where(known, grouped, 0.0).sum(axis=2)
+    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
 def quantisation_floor(factor: float, band: tuple[float, float], fs: float) -> float:
