@@ -89,3 +89,40 @@ def test_slip_duration_counts_sample_time_while_slipping():
         rig.tick()
     # the time from the first slipping state to the first state that is not: 50 updates
     assert rig.history[-1].slip_duration == pytest.approx(50 * DT, abs=1e-9)
+
+
+def tighten_times_with(rig: Rig, seconds: float, slipping) -> list[float]:
+    """As :func:`tighten_times`, with the slipping state set before each update from
+    ``slipping(time since the last tightening [s])``."""
+    start, times, last = rig.now, [], rig.now
+    while rig.now < start + seconds - 1e-9:
+        before = rig.history[-1].servo.position
+        rig.slipping = slipping(rig.now + DT - last)
+        out = rig.tick()
+        if out.servo.position < before - 1e-12:
+            times.append(round(rig.now - start, 6))
+            last = rig.now
+    return times
+
+
+def test_a_dip_of_the_state_at_the_interval_does_not_skip_the_tightening():
+    """A gross slide rings between its stick-slip bursts only: the state goes down for the
+    30 ms before each interval's end. Seen in the last half interval (0.1 s), it still
+    persists."""
+    rig = Rig()
+    rig.to_lifting()
+    rig.slip, rig.slipping = True, True
+    assert rig.tick().slip_reacted
+    rig.slip = False
+    times = tighten_times_with(rig, 0.65, lambda since: since < 0.17 - 1e-9)
+    assert times == pytest.approx([0.2, 0.4, 0.6], abs=DT / 2)
+
+
+def test_a_state_down_for_half_an_interval_is_a_slide_that_stopped():
+    rig = Rig()
+    rig.to_lifting()
+    rig.slip, rig.slipping = True, True
+    rig.tick()
+    rig.slip = False
+    # up for 0.05 s after the tightening (the stopped slide's ringing), then down
+    assert tighten_times_with(rig, 1.0, lambda since: since < 0.05 + 1e-9) == []

@@ -240,6 +240,7 @@ class GraspPhases:
         if perception.slipping:
             if grasp.slipping_stamp is None or perception.stamp > grasp.slipping_stamp:
                 grasp.slipping_stamp = perception.stamp
+            grasp.last_slipping_stamp = max(grasp.last_slipping_stamp, perception.stamp)
         else:
             grasp.slipping_stamp = None
 
@@ -247,7 +248,8 @@ class GraspPhases:
                          valid: bool) -> bool:
         """FORTE: a new slip flag outside the refractory time tightens by slip_increment
         (a fault if that would exceed max_tightening); so does a slipping state that
-        persists ``slipping_interval`` after the last tightening (never past
+        persists ``slipping_interval`` after the last tightening, i.e. a state sampled in
+        the last half interval and after the tightening said slipping (never past
         max_tightening, no fault: the grasp goes on at the cap). True if it tightened on a
         flag (a re-tightening while slipping is counted in slip_events but is no flag's
         reaction)."""
@@ -266,7 +268,9 @@ class GraspPhases:
                             f'cap {p.max_tightening:.4f} rad')
                 return False
             reason = 'slip'
-        elif (perception.slipping and p.slipping_interval > 0.0
+        elif (p.slipping_interval > 0.0
+              and grasp.last_slipping_stamp >= max(grasp.last_tightening_time,
+                                                   now - p.slipping_interval / 2)
               and grasp.tightening > 0.0  # after a tightening: it did not stop the slide
               and now - grasp.last_tightening_time >= max(p.slipping_interval,
                                                           p.slip_refractory)

@@ -67,6 +67,7 @@ class GraspProgress:
     last_tightening_time: float = -math.inf
     last_slip_stamp: float = -math.inf
     slipping_stamp: float | None = None  # stamp of the last perception seen slipping [s]
+    last_slipping_stamp: float = -math.inf  # ... never reset by a state that was not [s]
     slip_duration: float = 0.0         # time perception reported slipping [s]
     drop: DropDetector | None = None
     lift: LiftMonitor | None = None
