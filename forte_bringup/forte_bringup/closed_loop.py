@@ -156,7 +156,8 @@ class TrialResult:
 # ------------------------------------------------------------------------------ the trial
 #: Per-update traces kept with ``record_traces`` (see :func:`run_trial`).
 TRACE_NAMES = ('time', 'filtered', 'force_estimate', 'force_true', 'psd_max_db',
-               'finger_variance', 'slip', 'contact', 'servo_command', 'joint_position',
+               'finger_variance', 'slip', 'slipping', 'contact', 'servo_command',
+               'joint_position',
                'arm_velocity', 'lift_command', 'lift_true', 'object_height', 'object_state',
                'state')
 
@@ -247,6 +248,7 @@ class _TrialLog:
         traces['psd_max_db'].append(np.asarray(out.psd_max_db, float).copy())
         traces['finger_variance'].append(np.asarray(out.finger_variance, float).copy())
         traces['slip'].append(bool(out.slip))
+        traces['slipping'].append(bool(out.slipping))
         traces['contact'].append(np.asarray(out.contact, bool).copy())
         traces['servo_command'].append(commands.servo)
         traces['joint_position'].append(float(truth.joint_position[-1]))
@@ -454,9 +456,9 @@ def run_trial(object_name: str, controller, seed: int = 0,
         Keep per-update traces (``TrialResult.traces``): ``time`` (k,) [s since goal],
         ``filtered`` (k, 6), ``force_estimate`` (k,) [N] (NaN if invalid), ``force_true``
         (k, 2) [N], ``psd_max_db`` (k, 6) [dB], ``finger_variance`` (k, 2) [dB^2],
-        ``slip`` (k,), ``contact`` (k, 2), ``servo_command`` (k,) [rad], ``joint_position``
-        (k,) [rad], ``arm_velocity`` (k,) [m/s], ``lift_command`` (k,) [m],
-        ``lift_true`` (k,) [m], ``object_height`` (k,) [m], ``object_state`` (k,),
+        ``slip`` (k,), ``slipping`` (k,), ``contact`` (k, 2), ``servo_command`` (k,) [rad],
+        ``joint_position`` (k,) [rad], ``arm_velocity`` (k,) [m/s], ``lift_command`` (k,)
+        [m], ``lift_true`` (k,) [m], ``object_height`` (k,) [m], ``object_state`` (k,),
         ``state`` (k,) (GraspState).
 
     Returns

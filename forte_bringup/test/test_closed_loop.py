@@ -108,7 +108,8 @@ def test_traces_are_consistent(fragile_forte):
     assert np.allclose(np.diff(traces['time']), 0.01)
     for key, shape in (('filtered', (k, 6)), ('force_true', (k, 2)), ('psd_max_db', (k, 6)),
                        ('finger_variance', (k, 2)), ('contact', (k, 2)),
-                       ('servo_command', (k,)), ('lift_command', (k,)), ('state', (k,))):
+                       ('servo_command', (k,)), ('lift_command', (k,)), ('state', (k,)),
+                       ('slip', (k,)), ('slipping', (k,))):
         assert traces[key].shape == shape, key
     states = [GraspState(s) for s in traces['state']]
     order = [s for i, s in enumerate(states) if i == 0 or s != states[i - 1]]
