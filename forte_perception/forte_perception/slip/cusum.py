@@ -261,8 +261,7 @@ class BandPowerCusum:
             out.slipping[lo:hi, f] = slipping
             out.alarm[lo:hi, f] = alarm
             quiet[:, list(finger.channels)] = (~slipping & (s == 0.0))[:, None]
-        self._levels.record(np.where(quiet & np.isfinite(seg), seg, np.nan))
-        if self._levels.updates % self._block == 0:  # a block closed: new levels
+        if self._levels.record(np.where(quiet & np.isfinite(seg), seg, np.nan)):  # new levels
             for finger in self._fingers:
                 if not finger.slipping:  # S = C - M; re-base so that C stays small
                     finger.c, finger.m = finger.c - finger.m, 0.0

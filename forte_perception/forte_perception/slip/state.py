@@ -265,13 +265,16 @@ class QuietLevels:
         block_end = (self.updates // self.block + 1) * self.block
         return min(m, pos + block_end - self.updates)
 
-    def record(self, quiet_values: np.ndarray) -> None:
-        """The values (k, 6) of a segment [dB] (NaN: not quiet); closes a full block."""
+    def record(self, quiet_values: np.ndarray) -> bool:
+        """The values (k, 6) of a segment [dB] (NaN: not quiet); closes a full block (then
+        True: the levels are new)."""
         self._values.append(quiet_values)
         self.updates += quiet_values.shape[0]
-        if self.updates % self.block == 0:
-            update_quiet_levels(self.level, np.concatenate(self._values), self.beta)
-            self._values = []
+        if self.updates % self.block:
+            return False
+        update_quiet_levels(self.level, np.concatenate(self._values), self.beta)
+        self._values = []
+        return True
 
     def track(self, power_db: np.ndarray) -> np.ndarray:
         """Record m updates whose finite values are all quiet; the level in effect at each
