@@ -27,7 +27,7 @@ import numpy as np
 
 from forte_bringup.bag_namespace import read_namespaced
 from forte_perception.evaluation.slip_metrics import format_value
-from forte_ros.contract import CHANNEL_NAMES
+from forte_ros.contract import CHANNEL_NAMES, stamp_seconds
 
 #: Slip threshold T of the paper [dB^2].
 SLIP_THRESHOLD = 2.0
@@ -68,7 +68,7 @@ class GraspTrace:
 
 
 def _stamp(message) -> float:
-    return message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
+    return stamp_seconds(message.header.stamp)
 
 
 def traces_from_bag(bag: str | Path, windows: Sequence[tuple[str, int, int]],

@@ -37,7 +37,7 @@ import numpy as np
 
 from forte_bringup.bag_namespace import namespace_label, read_namespaced
 from forte_perception.evaluation.recordings import LabelledRecording, save_labelled
-from forte_ros.contract import CHANNEL_NAMES
+from forte_ros.contract import CHANNEL_NAMES, stamp_seconds
 
 __all__ = ['main', 'recording_from_bag']
 
@@ -46,7 +46,7 @@ _TOPICS = ('tactile/frames', 'sim/ground_truth', 'arm/cmd_vel')
 
 
 def _stamp(message) -> float:
-    return message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
+    return stamp_seconds(message.header.stamp)
 
 
 def _read(bag: Path, namespace: str | None) -> tuple[str, dict[str, list]]:

@@ -52,6 +52,12 @@ def stamp_ns(stamp) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
+def stamp_seconds(stamp) -> float:
+    """The same stamp in float seconds (``sec + 1e-9 nanosec``): for plots and time axes,
+    where a step of 256 ns at 1.8e9 s does not matter."""
+    return stamp.sec + 1e-9 * stamp.nanosec
+
+
 def prefixed(name: str, prefix: str = '') -> str:
     """``name`` (a frame or joint base name) with the TF / joint-name ``prefix`` prepended.
 

@@ -81,3 +81,10 @@ def test_stamp_ns_is_exact_integer_nanoseconds():
     assert contract.stamp_ns(Time(sec=104, nanosec=500_000)) == 104_000_500_000
     assert contract.stamp_ns(Time(sec=1_800_000_000, nanosec=999_999_999)) \
         == 1_800_000_000_999_999_999
+
+
+def test_stamp_seconds_is_sec_plus_nanosec():
+    from builtin_interfaces.msg import Time
+
+    assert contract.stamp_seconds(Time(sec=104, nanosec=500_000)) == 104.0005
+    assert contract.stamp_seconds(Time(sec=0, nanosec=0)) == 0.0
