@@ -284,11 +284,12 @@ class PerceptionPipeline:
         self._force_features = ForceFeatures(c.fs)
         self.health = ChannelHealth(c.input_limit, c.stuck_samples)
         self._slip_mask = SlipMask(c.fs, c.slip.features, c.median_window)
-        self._slipping = SlippingState(c.fs, (c.slip.f_min, c.slip.f_max),
-                                       c.slip.hop / c.fs, c.slipping)
+        # the slipping state: the sequential detector's own, or one beside the PSD rule
         self._sequential = (SequentialDetector(c.fs, c.slip.hop, (c.slip.f_min, c.slip.f_max),
                                                state=c.slipping)
                             if c.slip.mode == 'sequential' else None)
+        self._slipping = (SlippingState(c.fs, (c.slip.f_min, c.slip.f_max), c.slip.hop / c.fs,
+                                        c.slipping) if self._sequential is None else None)
         self._servo_gate = ServoGate(int(round(self._sequential.params.servo_hold * c.fs))
                                      if self._sequential is not None else 0)
         self._median_reach = c.median_window
@@ -331,9 +332,10 @@ class PerceptionPipeline:
         self._median.reset()
         self._slip.reset()
         self._slip_mask.reset()
-        self._slipping.reset()
         if self._sequential is not None:
             self._sequential.reset()
+        else:
+            self._slipping.reset()
         self._contact_history = np.zeros((0, N_CHANNELS))
         self._out.slip_active = False
 

@@ -52,6 +52,15 @@ def stamp_ns(stamp) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
+def split_ns(nanoseconds: int) -> tuple[int, int]:
+    """Integer nanoseconds (>= 0) as the ``(sec, nanosec)`` fields of a
+    ``builtin_interfaces/Time``: the inverse of :func:`stamp_ns`."""
+    if nanoseconds < 0:
+        raise ValueError(f'a stamp must be >= 0 ns, got {nanoseconds}')
+    sec, nanosec = divmod(int(nanoseconds), 1_000_000_000)
+    return sec, nanosec
+
+
 def stamp_seconds(stamp) -> float:
     """The same stamp in float seconds (``sec + 1e-9 nanosec``): for plots and time axes,
     where a step of 256 ns at 1.8e9 s does not matter."""

@@ -9,6 +9,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
+
 from forte_ros import contract
 
 CONTRACTS = (Path(__file__).resolve().parents[2] / 'docs' / 'contracts.md').read_text()
@@ -88,3 +90,17 @@ def test_stamp_seconds_is_sec_plus_nanosec():
 
     assert contract.stamp_seconds(Time(sec=104, nanosec=500_000)) == 104.0005
     assert contract.stamp_seconds(Time(sec=0, nanosec=0)) == 0.0
+
+
+def test_split_ns_inverts_stamp_ns():
+    """(sec, nanosec) of integer nanoseconds, exact at 1.8e9 s; a negative stamp is refused
+    (builtin_interfaces/Time has an unsigned nanosec and the contract's clocks start at 0)."""
+    from builtin_interfaces.msg import Time
+
+    for nanoseconds in (0, 999_999_999, 1_000_000_000, 104_000_500_000,
+                        1_800_000_000_999_999_999):
+        sec, nanosec = contract.split_ns(nanoseconds)
+        assert 0 <= nanosec < 1_000_000_000
+        assert contract.stamp_ns(Time(sec=sec, nanosec=nanosec)) == nanoseconds
+    with pytest.raises(ValueError, match='>= 0'):
+        contract.split_ns(-1)

@@ -66,7 +66,7 @@ from forte_perception.channel_health import channel_report
 from forte_perception.force import ForceModel
 from forte_perception.pipeline import PerceptionOutput, PerceptionPipeline, PipelineConfig
 from forte_ros import run_node
-from forte_ros.contract import BASE_FRAME, CHANNEL_NAMES, prefixed, stamp_ns
+from forte_ros.contract import BASE_FRAME, CHANNEL_NAMES, prefixed, split_ns, stamp_ns
 from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status, node_path
 from forte_ros.parameter_table import ParameterSpec, parameter_table, replace_fields
 from forte_ros.parameters import declare_table, parameter_update, read_table
@@ -432,8 +432,7 @@ class PerceptionNode(Node):
     def _to_message(self, out: PerceptionOutput, sample_ns: int, frame_id: str,
                     valid: bool | None = None) -> TactileState:
         msg = TactileState()
-        msg.header.stamp.sec = int(sample_ns // 10**9)
-        msg.header.stamp.nanosec = int(sample_ns % 10**9)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = split_ns(sample_ns)
         msg.header.frame_id = frame_id
         msg.sample_index = max(0, int(out.sample_index))
         msg.force = float(out.force)

@@ -79,8 +79,8 @@ def load_cell_messages(truth: SceneTruth, step: int, stamp_ns: Callable[[int], i
     first, force = truth.first_index, truth.load_cell_force
     for row in range(-first % step, len(force), step):
         message = WrenchStamped()
-        nanoseconds = stamp_ns(first + row)
-        message.header.stamp = Time(sec=nanoseconds // 10**9, nanosec=nanoseconds % 10**9)
+        sec, nanosec = contract.split_ns(stamp_ns(first + row))
+        message.header.stamp = Time(sec=sec, nanosec=nanosec)
         message.header.frame_id = frame_id
         message.wrench.force.z = float(force[row])
         yield message
