@@ -53,10 +53,9 @@ def stamp_ns(stamp) -> int:
 
 
 def split_ns(nanoseconds: int) -> tuple[int, int]:
-    """Integer nanoseconds (>= 0) as the ``(sec, nanosec)`` fields of a
-    ``builtin_interfaces/Time``: the inverse of :func:`stamp_ns`."""
-    if nanoseconds < 0:
-        raise ValueError(f'a stamp must be >= 0 ns, got {nanoseconds}')
+    """Integer nanoseconds as the ``(sec, nanosec)`` fields of a ``builtin_interfaces/Time``
+    (``0 <= nanosec < 1e9``; a time before the epoch has a negative ``sec``): the inverse of
+    :func:`stamp_ns`."""
     sec, nanosec = divmod(int(nanoseconds), 1_000_000_000)
     return sec, nanosec
 

@@ -9,8 +9,6 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import pytest
-
 from forte_ros import contract
 
 CONTRACTS = (Path(__file__).resolve().parents[2] / 'docs' / 'contracts.md').read_text()
@@ -93,14 +91,14 @@ def test_stamp_seconds_is_sec_plus_nanosec():
 
 
 def test_split_ns_inverts_stamp_ns():
-    """(sec, nanosec) of integer nanoseconds, exact at 1.8e9 s; a negative stamp is refused
-    (builtin_interfaces/Time has an unsigned nanosec and the contract's clocks start at 0)."""
+    """(sec, nanosec) of integer nanoseconds, exact at 1.8e9 s. builtin_interfaces/Time has
+    a signed sec and an unsigned nanosec below 1e9, so a time before the epoch (a simulated
+    clock's origin can lie there) keeps nanosec in range and carries the sign in sec."""
     from builtin_interfaces.msg import Time
 
     for nanoseconds in (0, 999_999_999, 1_000_000_000, 104_000_500_000,
-                        1_800_000_000_999_999_999):
+                        1_800_000_000_999_999_999, -1, -1_000_000_000, -1_500_000_000):
         sec, nanosec = contract.split_ns(nanoseconds)
         assert 0 <= nanosec < 1_000_000_000
         assert contract.stamp_ns(Time(sec=sec, nanosec=nanosec)) == nanoseconds
-    with pytest.raises(ValueError, match='>= 0'):
-        contract.split_ns(-1)
+    assert contract.split_ns(-1) == (-1, 999_999_999)
