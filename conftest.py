@@ -9,5 +9,6 @@ forte_ros as a dependency (a test dependency for forte_msgs), so under ``colcon 
 where each package's tests see only its own dependencies, this import works for all.
 """
 from forte_ros.isolation import isolate_ros_network
+from forte_ros.pytest_plugin import leak_guard, pytest_pycollect_makemodule  # noqa: F401 (see that module)
 
 isolate_ros_network()

@@ -1,51 +1,91 @@
-"""Run every test file of the workspace in its own pytest process and sum the results.
+"""Run the workspace's tests, one pytest process per package, and sum the results.
 
-Why one process per file: the ROS tests start real rclpy nodes, executors and DDS
-participants. In one long pytest process, state left by earlier files (participants,
-executor threads, sockets) slowed later rclpy tests until their timeouts failed at random,
-although each file passes on its own. A process per file (as ``colcon test`` gives one
-per package) removes that coupling; each process still isolates its ROS domain through
-the root conftest.
+One process per package is how ``colcon test`` runs them. The shared pytest plugin
+(:mod:`forte_ros.pytest_plugin`, loaded by every conftest) makes that safe for the rclpy
+tests: a test module that leaves threads, child processes or rclpy's default context
+running is an error of that module, so no module slows the ones after it, and a module that
+skips at import (no launch stack) skips alone, with its reason.
 
-Usage: ``python tools/run_tests.py [pytest args...]`` from the repository root (``make
-test-python``). Prints a line per file, a line per top-level folder (for a ROS package, the
-count ``colcon test`` reports for it) and a closing ``N passed, N failed, N skipped`` line;
-exits non-zero if any test failed or errored, a file could not be collected, or a file
-collected no test at all (pytest's exit 5: a renamed test module must not pass silently).
+Usage: ``python tools/run_tests.py [--package NAME ...] [pytest args...]`` from the
+repository root (``make test-python``; ``--package`` repeats, default every package of
+``pytest.ini``'s ``testpaths``). Prints pytest's own output per package, then a line per
+package (tests and wall time), the slowest tests, every skipped test with its reason, and a
+closing ``pytest: N passed, N failed, N skipped`` line. Exits 1 if a test failed or
+errored, a package's pytest ended abnormally, or a test file reported no test at all (a
+renamed or crashed module must not pass silently; with ``-k``/``-m`` selecting, a file may
+rightly report nothing).
 """
 from __future__ import annotations
 
+import argparse
 import configparser
 import subprocess
 import sys
 import tempfile
 import time
 import xml.etree.ElementTree as ElementTree
+from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-#: pytest's exit code when a file collects no test (every test deselected or none written).
-NO_TESTS_COLLECTED = 5
+#: pytest's exit codes that still mean "ran to the end": 0 all passed, 1 some failed, 5 no
+#: test collected (judged per file below).
+COMPLETED = (0, 1, 5)
+#: How many of the slowest tests the summary lists.
+SLOWEST = 15
 
 
-def test_files() -> list[Path]:
-    """Every ``test_*.py`` below the ``testpaths`` of pytest.ini, in a stable order."""
+@dataclass(frozen=True)
+class TestResult:
+    """One test case of a junit report: ``outcome`` is passed, failed or skipped (an error
+    counts as failed); ``file`` is relative to the repository root."""
+
+    file: str
+    name: str
+    seconds: float
+    outcome: str
+    reason: str = ''
+
+
+def packages(root: Path = ROOT) -> dict[str, list[Path]]:
+    """The test folders of ``pytest.ini``'s ``testpaths`` grouped by package (their first
+    path part), in the order listed."""
     config = configparser.ConfigParser()
-    config.read(ROOT / 'pytest.ini')
-    folders = config['pytest']['testpaths'].split()
-    return sorted(path for folder in folders if (ROOT / folder).is_dir()
-                  for path in (ROOT / folder).rglob('test_*.py'))
+    config.read(root / 'pytest.ini')
+    grouped: dict[str, list[Path]] = {}
+    for folder in config['pytest']['testpaths'].split():
+        if (root / folder).is_dir():
+            grouped.setdefault(Path(folder).parts[0], []).append(root / folder)
+    return grouped
 
 
-def counts_from_junit(report: Path) -> dict[str, int]:
-    """Test counts of one junit XML report (zeros when pytest wrote none)."""
-    totals = {'tests': 0, 'failures': 0, 'errors': 0, 'skipped': 0}
+def test_files(folders: list[Path]) -> list[Path]:
+    """Every ``test_*.py`` below ``folders``, sorted."""
+    return sorted(path for folder in folders for path in folder.rglob('test_*.py'))
+
+
+def read_junit(report: Path) -> list[TestResult]:
+    """The test cases of a junit XML report written with ``junit_family=xunit1`` (which
+    records each case's file); empty when pytest wrote none."""
     if not report.exists():
-        return totals
-    for suite in ElementTree.parse(report).getroot().iter('testsuite'):
-        for key in totals:
-            totals[key] += int(suite.get(key, 0))
-    return totals
+        return []
+    results = []
+    for case in ElementTree.parse(report).getroot().iter('testcase'):
+        outcome, reason = 'passed', ''
+        for child in case:
+            if child.tag in ('failure', 'error'):
+                outcome = 'failed'
+            elif child.tag == 'skipped' and outcome == 'passed':
+                outcome, reason = 'skipped', child.get('message', '') + ' ' + (child.text or '')
+        file = case.get('file', '')
+        # classname is the module's dotted path, with the test's class last if it has one
+        owner = case.get('classname', '').rsplit('.', 1)[-1]
+        name = case.get('name', '')
+        if owner and owner != Path(file).stem:
+            name = f'{owner}::{name}'
+        results.append(TestResult(file, name, float(case.get('time', 0)), outcome,
+                                  reason.strip()))
+    return results
 
 
 def selects_tests(pytest_args: list[str]) -> bool:
@@ -54,54 +94,90 @@ def selects_tests(pytest_args: list[str]) -> bool:
     return any(arg in ('-k', '-m') or arg.startswith(('-k=', '-m=')) for arg in pytest_args)
 
 
-def main(pytest_args: list[str], files: list[Path] | None = None, root: Path = ROOT) -> int:
-    """Run each test file (default: :func:`test_files`) in its own pytest process.
+def run_package(name: str, folders: list[Path], pytest_args: list[str], report: Path,
+                root: Path) -> tuple[list[TestResult], list[str], float]:
+    """Run one package's tests in one pytest process.
 
     Returns
     -------
-    int
-        0 if every file passed; 1 if a test failed or errored, a file could not be
-        collected, or a file collected no test without ``-k``/``-m`` selecting.
+    tuple
+        ``(results, problems, seconds)``: its test cases, what makes the run fail besides a
+        failed test (an abnormal exit, a file that reported nothing), its wall time [s].
     """
-    files = test_files() if files is None else files
-    empty_allowed = selects_tests(pytest_args)
-    passed = failed = skipped = 0
-    per_package: dict[str, list[int]] = {}
-    broken: list[str] = []
+    begin = time.monotonic()
+    print(f'[tests] {name}: pytest {" ".join(str(f.relative_to(root)) for f in folders)}',
+          flush=True)
+    completed = subprocess.run(
+        [sys.executable, '-m', 'pytest', *(str(f.relative_to(root)) for f in folders), '-q',
+         '-p', 'no:cacheprovider', '-o', 'junit_family=xunit1', f'--junitxml={report}',
+         *pytest_args], cwd=root)
+    seconds = time.monotonic() - begin
+    results = read_junit(report)
+    problems = []
+    if completed.returncode not in COMPLETED:
+        problems.append(f'{name}: pytest exited {completed.returncode} (interrupted, a usage '
+                        'error or a crash: the tests after it did not run)')
+    if not selects_tests(pytest_args):
+        reported = {result.file for result in results}
+        problems += [f'{path.relative_to(root)}: reported no test (renamed away, or the '
+                     f'process died before it)' for path in test_files(folders)
+                     if str(path.relative_to(root)) not in reported]
+    return results, problems, seconds
+
+
+def summary(per_package: dict[str, tuple[list[TestResult], float]],
+            problems: list[str]) -> list[str]:
+    """The closing lines: per package, the slowest tests, the skipped ones, the problems and
+    the ``N passed, N failed, N skipped`` line."""
+    lines = []
+    every = [result for results, _ in per_package.values() for result in results]
+    for name, (results, seconds) in per_package.items():
+        counts = {outcome: sum(r.outcome == outcome for r in results)
+                  for outcome in ('passed', 'failed', 'skipped')}
+        lines.append(f'[tests] {name}: {counts["passed"]} passed, {counts["failed"]} failed, '
+                     f'{counts["skipped"]} skipped in {seconds:.0f} s')
+    lines.append(f'[tests] slowest {SLOWEST} tests (setup + call + teardown):')
+    for result in sorted(every, key=lambda r: -r.seconds)[:SLOWEST]:
+        lines.append(f'[tests] {result.seconds:8.1f} s  {result.file}::{result.name}')
+    for result in every:
+        if result.outcome == 'skipped':
+            lines.append(f'[tests] SKIPPED {result.file}::{result.name}: {result.reason}')
+    for result in every:
+        if result.outcome == 'failed':
+            lines.append(f'[tests] FAILED {result.file}::{result.name}')
+    lines += [f'[tests] FAILED {problem}' for problem in problems]
+    totals = {outcome: sum(r.outcome == outcome for r in every)
+              for outcome in ('passed', 'failed', 'skipped')}
+    lines.append(f'pytest: {totals["passed"]} passed, {totals["failed"] + len(problems)} '
+                 f'failed, {totals["skipped"]} skipped')
+    return lines
+
+
+def main(arguments: list[str], root: Path = ROOT) -> int:
+    """Run the packages' tests (see the module docstring); 0 if all is well, else 1."""
+    parser = argparse.ArgumentParser(add_help=False)
+    parser.add_argument('--package', action='append', default=[])
+    options, pytest_args = parser.parse_known_args(arguments)
+    grouped = packages(root)
+    unknown = sorted(set(options.package) - set(grouped))
+    if unknown:
+        print(f'[tests] unknown package(s) {unknown}; the packages are {sorted(grouped)}')
+        return 1
+    chosen = {name: folders for name, folders in grouped.items()
+              if not options.package or name in options.package}
     started = time.monotonic()
+    per_package: dict[str, tuple[list[TestResult], float]] = {}
+    problems: list[str] = []
     with tempfile.TemporaryDirectory() as folder:
-        for index, path in enumerate(files):
-            report = Path(folder) / f'{index}.xml'
-            relative = path.relative_to(root)
-            begin = time.monotonic()
-            result = subprocess.run(
-                [sys.executable, '-m', 'pytest', str(relative), '-q', '-p', 'no:cacheprovider',
-                 f'--junitxml={report}', *pytest_args], cwd=root)
-            counts = counts_from_junit(report)
-            file_failed = counts['failures'] + counts['errors']
-            file_passed = counts['tests'] - file_failed - counts['skipped']
-            passed += file_passed
-            failed += file_failed
-            skipped += counts['skipped']
-            package = per_package.setdefault(relative.parts[0], [0, 0, 0])
-            package[0] += file_passed
-            package[1] += file_failed
-            package[2] += counts['skipped']
-            if result.returncode == NO_TESTS_COLLECTED and not empty_allowed:
-                broken.append(f'{relative} (exit 5: no test collected, a file that tests '
-                              f'nothing is a failure)')
-            elif result.returncode not in (0, NO_TESTS_COLLECTED) or file_failed:
-                broken.append(f'{relative} (exit {result.returncode})')
-            print(f'[tests] {relative}: {file_passed} passed, {file_failed} failed, '
-                  f'{counts["skipped"]} skipped in {time.monotonic() - begin:.1f} s', flush=True)
-    print(f'[tests] {len(files)} files in {time.monotonic() - started:.0f} s')
-    for name, (package_passed, package_failed, package_skipped) in sorted(per_package.items()):
-        print(f'[tests] {name}: {package_passed} passed, {package_failed} failed, '
-              f'{package_skipped} skipped')
-    for name in broken:
-        print(f'[tests] FAILED: {name}')
-    print(f'pytest: {passed} passed, {failed} failed, {skipped} skipped')
-    return 1 if broken else 0
+        for name, folders in chosen.items():
+            results, found, seconds = run_package(name, folders, pytest_args,
+                                                  Path(folder) / f'{name}.xml', root)
+            per_package[name] = (results, seconds)
+            problems += found
+    print(f'[tests] {len(chosen)} packages in {time.monotonic() - started:.0f} s')
+    print('\n'.join(summary(per_package, problems)), flush=True)
+    failed = any(r.outcome == 'failed' for results, _ in per_package.values() for r in results)
+    return 1 if failed or problems else 0
 
 
 if __name__ == '__main__':

@@ -15,6 +15,7 @@ configuration or another layout hides them):
 import pytest
 
 from forte_ros.isolation import isolate_ros_network
+from forte_ros.pytest_plugin import leak_guard, pytest_pycollect_makemodule  # noqa: F401 (see that module)
 
 isolate_ros_network()
 

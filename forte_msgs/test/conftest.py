@@ -8,5 +8,6 @@ imports rclpy: discovery on loopback and a domain id held by this process alone
 forte_msgs declares forte_ros as a <test_depend> for this import.
 """
 from forte_ros.isolation import isolate_ros_network
+from forte_ros.pytest_plugin import leak_guard, pytest_pycollect_makemodule  # noqa: F401 (see that module)
 
 isolate_ros_network()

@@ -13,6 +13,7 @@ import sys
 import pytest
 
 from forte_ros.isolation import isolate_ros_network
+from forte_ros.pytest_plugin import leak_guard, pytest_pycollect_makemodule  # noqa: F401 (see that module)
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 isolate_ros_network()

@@ -320,3 +320,88 @@ class Probe(SpinningGraph):
         """``<node>/get_state``: the label of the current state, or None without an answer."""
         response = self.call(GetState, f'{node}/get_state', GetState.Request())
         return None if response is None else response.current_state.label
+
+
+def launch_file_actions(path: str | Path, **arguments: str) -> tuple[Any, list]:
+    """What a launch file amounts to for ``arguments``, as ``ros2 launch`` would evaluate
+    it, with nothing started.
+
+    The declared arguments are evaluated first (the given values, the defaults for the
+    rest), ``SetLaunchConfiguration`` actions applied, and every ``OpaqueFunction``,
+    included launch file and nested ``LaunchDescription`` opened in place.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.launch.py`` file.
+    **arguments : str
+        Launch arguments, as typed after ``ros2 launch`` (``name:=value``).
+
+    Returns
+    -------
+    tuple
+        ``(context, actions)``: the launch context after evaluation (its
+        ``launch_configurations`` hold every argument's value) and the remaining actions
+        (launch_ros ``Node``, ``ExecuteProcess``, ``LogInfo``, ...) in launch order.
+    """
+    import launch
+    from launch.actions import (
+        DeclareLaunchArgument,
+        IncludeLaunchDescription,
+        OpaqueFunction,
+        SetLaunchConfiguration,
+    )
+    from launch.launch_description_sources import PythonLaunchDescriptionSource
+
+    def expand(entities: list, context: Any) -> list:
+        actions = []
+        for entity in entities:
+            if isinstance(entity, (DeclareLaunchArgument, SetLaunchConfiguration)):
+                entity.execute(context)
+            elif isinstance(entity, (OpaqueFunction, IncludeLaunchDescription)):
+                actions += expand(entity.execute(context) or [], context)
+            elif isinstance(entity, launch.LaunchDescription):
+                actions += expand(entity.entities, context)
+            else:
+                actions.append(entity)
+        return actions
+
+    context = launch.LaunchContext()
+    context.launch_configurations.update(arguments)
+    source = PythonLaunchDescriptionSource(str(path))
+    return context, expand(source.get_launch_description(context).entities, context)
+
+
+def launch_file_description(path: str | Path) -> Any:
+    """The ``LaunchDescription`` of a ``.launch.py`` file (its declared arguments:
+    ``get_launch_arguments()``), nothing evaluated."""
+    import launch
+    from launch.launch_description_sources import PythonLaunchDescriptionSource
+
+    return PythonLaunchDescriptionSource(str(path)).get_launch_description(
+        launch.LaunchContext())
+
+
+def gripper_goal(position: float, max_effort: float = 0.0) -> Any:
+    """A ``control_msgs/action/GripperCommand`` goal: ``position`` [rad] of each finger
+    joint, ``max_effort`` (0 = the driver's default)."""
+    from control_msgs.action import GripperCommand
+
+    goal = GripperCommand.Goal()
+    goal.command.position = float(position)
+    goal.command.max_effort = float(max_effort)
+    return goal
+
+
+def parallel_gripper_goal(names: list[str], positions: list[float],
+                          velocity: list[float] = (), effort: list[float] = ()) -> Any:
+    """A ``control_msgs/action/ParallelGripperCommand`` goal: one entry per named joint
+    (positions [rad], velocities [rad/s], efforts; empty lists leave the defaults)."""
+    from control_msgs.action import ParallelGripperCommand
+
+    goal = ParallelGripperCommand.Goal()
+    goal.command.name = list(names)
+    goal.command.position = [float(value) for value in positions]
+    goal.command.velocity = [float(value) for value in velocity]
+    goal.command.effort = [float(value) for value in effort]
+    return goal

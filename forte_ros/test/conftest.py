@@ -7,5 +7,6 @@ imports rclpy: discovery on loopback and a domain id held by this process alone
 (:mod:`forte_ros.isolation`, pure Python; calling it again keeps the id).
 """
 from forte_ros.isolation import isolate_ros_network
+from forte_ros.pytest_plugin import leak_guard, pytest_pycollect_makemodule  # noqa: F401 (see that module)
 
 isolate_ros_network()

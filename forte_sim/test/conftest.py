@@ -18,6 +18,7 @@ import pytest
 from dynamixel_sdk import PortHandler
 
 from forte_ros.isolation import isolate_ros_network
+from forte_ros.pytest_plugin import leak_guard, pytest_pycollect_makemodule  # noqa: F401 (see that module)
 
 isolate_ros_network()
 

@@ -1,4 +1,7 @@
-"""tools/run_tests.py judges each file by what pytest really did, including collecting nothing."""
+"""tools/run_tests.py judges each package run by what pytest really did: failures, files
+that report nothing, a crashed process, a module that skips at import (alone, with its
+reason) or leaves something running (forte_ros.pytest_plugin, loaded as every FORTE
+conftest loads it)."""
 from __future__ import annotations
 
 import sys
@@ -9,36 +12,109 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import run_tests  # noqa: E402
 
-
-def write_tests(folder: Path, files: dict[str, str]) -> list[Path]:
-    """Test files named after the keys with the values as their text, in a pytest rootdir."""
-    (folder / 'pytest.ini').write_text('[pytest]\n')
-    paths = []
-    for name, text in files.items():
-        path = folder / name
-        path.write_text(text)
-        paths.append(path)
-    return paths
-
-
+#: The conftest of the scratch workspaces: the shared plugin, as the packages' conftests.
+CONFTEST = 'from forte_ros.pytest_plugin import leak_guard, pytest_pycollect_makemodule\n'
 PASSING = 'def test_one():\n    assert 1 + 1 == 2\n'
 FAILING = 'def test_one():\n    assert 1 + 1 == 3\n'
-#: a test module whose tests were renamed away: pytest collects nothing and exits 5
+#: a test module whose tests were renamed away: pytest collects nothing from it
 NOTHING = 'def helper():\n    return 1\n'
+#: a launch test on a machine without the launch stack
+NEEDS_KIT = ('import pytest\n'
+             "pytest.importorskip('launch_stack_absent_here', reason='needs the launch kit')\n"
+             'def test_launch():\n    pass\n')
+#: a test that starts a thread and never stops it
+LEAKS_A_THREAD = ('import threading\n'
+                  'def test_starts_a_thread():\n'
+                  '    threading.Thread(target=threading.Event().wait, name="forgotten",\n'
+                  '                     daemon=True).start()\n')
+#: a test whose process dies (as a segfault in a C extension would end it)
+CRASHES = 'import os\ndef test_crash():\n    os._exit(134)\n'
+
+
+def workspace(folder: Path, packages: dict[str, dict[str, str]]) -> Path:
+    """A scratch workspace: ``packages`` maps a package name to its test files (name ->
+    text), each in ``<package>/test/``; pytest.ini lists them as testpaths."""
+    (folder / 'pytest.ini').write_text(
+        '[pytest]\ntestpaths = ' + ' '.join(f'{name}/test' for name in packages) + '\n')
+    (folder / 'conftest.py').write_text(CONFTEST)
+    for name, files in packages.items():
+        (folder / name / 'test').mkdir(parents=True)
+        for file_name, text in files.items():
+            (folder / name / 'test' / file_name).write_text(text)
+    return folder
+
+
+def run(folder: Path, capfd, *arguments: str) -> tuple[int, str]:
+    code = run_tests.main(list(arguments), root=folder)
+    return code, capfd.readouterr().out
 
 
 @pytest.mark.parametrize(('text', 'code'), [(PASSING, 0), (FAILING, 1), (NOTHING, 1)])
-def test_exit_code_follows_what_pytest_did(tmp_path, capsys, text, code):
-    files = write_tests(tmp_path, {'test_good.py': PASSING, 'test_other.py': text})
-    assert run_tests.main([], files=files, root=tmp_path) == code
-    output = capsys.readouterr().out
+def test_exit_code_follows_what_pytest_did(tmp_path, capfd, text, code):
+    root = workspace(tmp_path, {'alpha': {'test_good.py': PASSING, 'test_other.py': text}})
+    exit_code, output = run(root, capfd)
+    assert exit_code == code
     if text is NOTHING:
-        assert 'test_other.py (exit 5: no test collected' in output
+        assert 'FAILED alpha/test/test_other.py: reported no test' in output
+    closing = output.strip().splitlines()[-1]
+    assert closing == {0: 'pytest: 2 passed, 0 failed, 0 skipped',
+                       1: 'pytest: 1 passed, 1 failed, 0 skipped'}[code]
 
 
-def test_a_selection_may_leave_a_file_empty(tmp_path):
-    files = write_tests(tmp_path, {'test_good.py': PASSING,
-                                   'test_other.py': 'def test_two():\n    pass\n'})
-    assert run_tests.main(['-k', 'one'], files=files, root=tmp_path) == 0
-    assert run_tests.main(['-k', 'nothing_matches'], files=files, root=tmp_path) == 0
-    assert run_tests.main([], files=files, root=tmp_path) == 0
+def test_a_selection_may_leave_a_file_empty(tmp_path, capfd):
+    root = workspace(tmp_path, {'alpha': {'test_good.py': PASSING,
+                                          'test_other.py': 'def test_two():\n    pass\n'}})
+    assert run(root, capfd, '-k', 'one')[0] == 0
+    assert run(root, capfd, '-k', 'nothing_matches')[0] == 0
+    assert run(root, capfd)[0] == 0
+
+
+def test_a_module_that_skips_at_import_skips_alone_with_its_reason(tmp_path, capfd):
+    # the launch test sorts first in its folder: without the plugin's collection hook,
+    # launch_testing's plugin (installed with the launch stack) would skip the whole folder
+    root = workspace(tmp_path, {'alpha': {'test_a_launch.py': NEEDS_KIT,
+                                          'test_b_plain.py': PASSING}})
+    code, output = run(root, capfd)
+    assert code == 0, output
+    assert output.strip().splitlines()[-1] == 'pytest: 1 passed, 0 failed, 1 skipped'
+    assert 'SKIPPED alpha/test/test_a_launch.py' in output and 'needs the launch kit' in output
+
+
+def test_a_module_that_leaves_a_thread_running_fails(tmp_path, capfd):
+    root = workspace(tmp_path, {'alpha': {'test_leak.py': LEAKS_A_THREAD,
+                                          'test_later.py': PASSING}})
+    code, output = run(root, capfd)
+    assert code == 1
+    assert "thread 'forgotten'" in output
+    assert 'FAILED alpha/test/test_leak.py' in output
+
+
+def test_a_crashed_package_fails_and_the_next_package_still_runs(tmp_path, capfd):
+    root = workspace(tmp_path, {'alpha': {'test_a_crash.py': CRASHES,
+                                          'test_b_after.py': PASSING},
+                                'beta': {'test_good.py': PASSING}})
+    code, output = run(root, capfd)
+    assert code == 1
+    assert 'alpha: pytest exited 134' in output
+    assert 'FAILED alpha/test/test_b_after.py: reported no test' in output
+    assert '[tests] beta: 1 passed, 0 failed, 0 skipped' in output
+
+
+def test_packages_can_be_chosen_and_an_unknown_one_is_refused(tmp_path, capfd):
+    root = workspace(tmp_path, {'alpha': {'test_good.py': FAILING},
+                                'beta': {'test_good.py': PASSING}})
+    code, output = run(root, capfd, '--package', 'beta')
+    assert code == 0 and '[tests] alpha' not in output
+    code, output = run(root, capfd, '--package', 'gamma')
+    assert code == 1 and "unknown package(s) ['gamma']" in output
+
+
+def test_the_summary_lists_the_slowest_tests_first(tmp_path, capfd):
+    slow = 'import time\ndef test_slow():\n    time.sleep(0.3)\n'
+    root = workspace(tmp_path, {'alpha': {'test_fast.py': PASSING, 'test_slow.py': slow}})
+    code, output = run(root, capfd)
+    assert code == 0
+    lines = output.splitlines()
+    heading = lines.index('[tests] slowest 15 tests (setup + call + teardown):')
+    assert lines[heading + 1].endswith('alpha/test/test_slow.py::test_slow')
+    assert float(lines[heading + 1].split()[1]) >= 0.3
