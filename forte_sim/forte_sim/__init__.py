@@ -9,37 +9,37 @@ Pure core (no rclpy) outside :mod:`.ros` (the node, the ROS shell); the sensor c
 
 See docs/simulation.md for the model, its parameters and its cost.
 """
-from forte_sim.catalogue import (
-    CATEGORIES,
-    INDENTORS,
-    OBJECTS,
-    IndentorSpec,
-    ObjectSpec,
-    objects_in_category,
-)
-from forte_sim.model import DEFAULT_MODEL, GripperModel
-from forte_sim.scene import SCENE_NAMES, SLIP_CHARACTERIZATION_OBJECTS, Scene, make_scene
-from forte_sim.state import TICK_SAMPLES
-from forte_sim.truth import (
-    OBJECT_BROKEN,
-    OBJECT_CRUSHED,
-    OBJECT_DROPPED,
-    OBJECT_HELD,
-    OBJECT_NONE,
-    OBJECT_RESTING,
-    SLIP_GROSS,
-    SLIP_INCIPIENT,
-    SLIP_NONE,
-    SLIP_ROTATIONAL,
-    SLIP_STICK_SLIP,
-    SceneTruth,
-)
+from __future__ import annotations
 
-__all__ = [
-    'CATEGORIES', 'DEFAULT_MODEL', 'INDENTORS', 'OBJECTS', 'OBJECT_BROKEN',
-    'OBJECT_CRUSHED', 'OBJECT_DROPPED', 'OBJECT_HELD', 'OBJECT_NONE', 'OBJECT_RESTING',
-    'SCENE_NAMES', 'SLIP_CHARACTERIZATION_OBJECTS',
-    'SLIP_GROSS', 'SLIP_INCIPIENT', 'SLIP_NONE', 'SLIP_ROTATIONAL', 'SLIP_STICK_SLIP',
-    'TICK_SAMPLES', 'GripperModel', 'IndentorSpec', 'ObjectSpec', 'Scene', 'SceneTruth',
-    'make_scene', 'objects_in_category',
-]
+import importlib
+from typing import Any
+
+#: Public name -> the module that defines it, imported on first use (PEP 562): a process
+#: that needs only a bench device (the simulated servos or the emulated sensor board, one
+#: started per test on the bench) then does not pay for the scene's scipy imports (~1 s).
+_SOURCES = {
+    **dict.fromkeys(('CATEGORIES', 'INDENTORS', 'OBJECTS', 'IndentorSpec', 'ObjectSpec',
+                     'objects_in_category'), 'forte_sim.catalogue'),
+    **dict.fromkeys(('DEFAULT_MODEL', 'GripperModel'), 'forte_sim.model'),
+    **dict.fromkeys(('SCENE_NAMES', 'SLIP_CHARACTERIZATION_OBJECTS', 'Scene', 'make_scene'),
+                    'forte_sim.scene'),
+    'TICK_SAMPLES': 'forte_sim.state',
+    **dict.fromkeys(('OBJECT_BROKEN', 'OBJECT_CRUSHED', 'OBJECT_DROPPED', 'OBJECT_HELD',
+                     'OBJECT_NONE', 'OBJECT_RESTING', 'SLIP_GROSS', 'SLIP_INCIPIENT',
+                     'SLIP_NONE', 'SLIP_ROTATIONAL', 'SLIP_STICK_SLIP', 'SceneTruth'),
+                    'forte_sim.truth'),
+}
+
+__all__ = sorted(_SOURCES)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _SOURCES:
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    value = getattr(importlib.import_module(_SOURCES[name]), name)
+    globals()[name] = value  # later lookups find it without this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_SOURCES})
