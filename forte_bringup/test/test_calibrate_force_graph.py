@@ -116,7 +116,7 @@ def raspberry_in_the_sim_graph(model_path, log_dir) -> None:
     from forte_msgs.msg import SimGroundTruth
 
     bringup = Bringup('sim', {'object': 'raspberry', 'force_model': str(model_path),
-                              'real_time_factor': '0.5'}, log_dir=log_dir, echo=None)
+                              'real_time_factor': '1.0'}, log_dir=log_dir, echo=None)
     with watching() as watcher:
         bringup.start(timeout=60.0)
         try:

@@ -117,7 +117,7 @@ def test_the_running_sim_graph_has_every_view_topic_and_the_urdf_joints(tmp_path
     tree = Tree(expand_gripper(''))
     chains = pad_chains(tree)
     echo = io.StringIO()
-    bringup = Bringup('sim', {'object': 'raspberry', 'real_time_factor': '0.5',
+    bringup = Bringup('sim', {'object': 'raspberry', 'real_time_factor': '1.0',
                               'force_model': str(force_model_file(tmp_path / 'model.npz'))},
                       log_dir=tmp_path / 'logs', echo=echo)
     assert 'visualization' in bringup.commands()
