@@ -5,9 +5,11 @@ The launch starts the bench twin on the simulated rig (its sensor board and serv
 ptys, ``sensor_fault`` injected into the readings), the hardware graph on the twin's links
 and ``forte_commission --headless`` (the twin's scripted operator presses, the leak test
 closes the gripper through ``gripper/command``). The test reads the report it writes.
-The healthy run is made twice: in the root namespace, and as one gripper of several on a
-domain (``namespace:=right prefix:=right_``, issue 27): its commissioning starts only if
-``forte_commission`` reads the namespaced readings and the prefixed joints.
+The healthy run is in the root namespace; the faulty one runs as one gripper of several on
+a domain (``namespace:=right prefix:=right_``): its commissioning starts only if
+``forte_commission`` reads the namespaced readings and the prefixed joints, and its report
+must then name the injected fault. (Until 2026-11 a third run, healthy in the namespace,
+checked the namespace alone; the faulty namespaced run checks it and more, 35 s less.)
 
 Needs launch_pytest and launch_ros (the launch kit on a bare machine); skipped with that
 reason otherwise.
@@ -30,6 +32,7 @@ from launch.actions import IncludeLaunchDescription  # noqa: E402
 from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
 
 from forte_perception.commissioning import CommissioningRecording, evaluate  # noqa: E402
+from forte_ros.testing import wait_until  # noqa: E402
 
 LAUNCH = Path(__file__).resolve().parents[1] / 'launch' / 'commission.launch.py'
 #: Start-up of twin and graph (up to a minute on a loaded 2-core machine), the protocol
@@ -45,10 +48,10 @@ FAULTS = {'': None, 'reversed:left_middle': ('reversed', 'left_middle')}
 
 
 #: Runs: (injected fault, namespace, prefix).
-RUNS = [('', '', ''), ('reversed:left_middle', '', ''), ('', 'right', 'right_')]
+RUNS = [('', '', ''), ('reversed:left_middle', 'right', 'right_')]
 
 
-@pytest.fixture(params=RUNS, ids=['healthy', 'reversed', 'healthy_in_namespace'])
+@pytest.fixture(params=RUNS, ids=['healthy', 'reversed_in_namespace'])
 def run(request) -> tuple[str, str, str]:
     return request.param
 
@@ -77,9 +80,7 @@ def test_commissioning_on_the_bench_twin_names_the_injected_fault(fault: str,
                                                                    tmp_path: Path):
     report_file = tmp_path / 'out' / 'report.txt'
     start = time.monotonic()
-    while not report_file.exists() and time.monotonic() - start < DONE:
-        time.sleep(0.5)
-    assert report_file.exists(), 'no report within the time allowed'
+    assert wait_until(report_file.exists, DONE, period=0.5), 'no report within the time allowed'
     report = report_file.read_text()
     print(f'commissioning with fault {fault!r}: report after {time.monotonic() - start:.0f} s')
     print(report[:1200])
