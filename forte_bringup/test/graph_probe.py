@@ -21,7 +21,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -34,34 +34,11 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from forte_ros import call_in_executor, qos
+from forte_ros.testing import wait_until
 
 #: Topics :class:`Watcher` counts (``tared``: tactile states that are tared and valid).
 COUNTED = ('tactile/frames', 'tactile/state', 'joint_states', 'grasp/state', 'tared')
 
-
-def wait_for(condition: Callable[[], bool], timeout: float, interval: float = 0.05) -> bool:
-    """Poll ``condition`` until it is true or ``timeout`` s have passed.
-
-    Parameters
-    ----------
-    condition : callable
-        Returns a truth value; called from this thread.
-    timeout : float
-        Longest wait [s].
-    interval : float
-        Pause between calls [s].
-
-    Returns
-    -------
-    bool
-        The last value of the condition (true if it became true in time).
-    """
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(interval)
-    return bool(condition())
 
 
 class Watcher(Node):
@@ -170,7 +147,7 @@ class Watcher(Node):
             if not client.wait_for_service(timeout_sec=timeout):
                 return None
             future = client.call_async(request)
-            if not wait_for(future.done, timeout):
+            if not wait_until(future.done, timeout):
                 return None
             return future.result()
         finally:
@@ -257,12 +234,12 @@ class Watcher(Node):
             feedback: list = []
             future = call_in_executor(self.executor, client.send_goal_async, goal,
                                       feedback.append)
-            assert wait_for(future.done, timeout), 'goal not answered'
+            assert wait_until(future.done, timeout), 'goal not answered'
             handle = future.result()
             if not handle.accepted:
                 return False, None, feedback
             result_future = call_in_executor(self.executor, handle.get_result_async)
-            if not wait_for(result_future.done, timeout):
+            if not wait_until(result_future.done, timeout):
                 return True, None, feedback
             return True, result_future.result().result, feedback
         finally:
@@ -390,7 +367,7 @@ def _device_processes(commands: list[list[str]], links: tuple[Path, Path], timeo
             processes.append(subprocess.Popen([sys.executable, '-m', *command], stdout=log,
                                               stderr=subprocess.STDOUT))
     try:
-        assert wait_for(lambda: all(link.exists() for link in links), timeout), (
+        assert wait_until(lambda: all(link.exists() for link in links), timeout), (
             f'{what} did not create {" and ".join(str(link) for link in links)}')
         yield links
     finally:

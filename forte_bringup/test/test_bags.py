@@ -26,6 +26,7 @@ from rosbags.rosbag2 import Reader as RosbagsReader
 from forte_bringup.record import BagRecorder
 from forte_driver.replay.bags import BagError, BagWriter, TopicSpec, forte_typestore, read_bag
 from forte_msgs.msg import GraspState, TactileFrames
+from forte_ros.testing import wait_until
 
 CHANNELS = ['left_distal', 'left_middle', 'left_root', 'right_distal', 'right_middle',
             'right_root']
@@ -72,14 +73,6 @@ def executor():
     thread.join(timeout=5)
 
 
-def wait_for(condition, timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(0.02)
-    return condition()
-
 
 def read_with_mcap_ros2(bag: Path) -> dict[str, list]:
     """Decode every message with mcap + mcap_ros2 (independent of rclpy and rosbags)."""
@@ -104,13 +97,13 @@ def record_in_process(executor, tmp_path: Path, count: int) -> tuple[Path, BagRe
     bag = tmp_path / 'bag'
     recorder = BagRecorder(bag, topics=['tactile/frames', 'grasp/state'])
     executor.add_node(recorder.node)
-    assert wait_for(lambda: len([s for s in recorder.subscriptions.values() if s]) == 2)
-    assert wait_for(lambda: talker.frames.get_subscription_count() == 1)
-    assert wait_for(lambda: recorder.received.get('/grasp/state', 0) == 1)
+    assert wait_until(lambda: len([s for s in recorder.subscriptions.values() if s]) == 2)
+    assert wait_until(lambda: talker.frames.get_subscription_count() == 1)
+    assert wait_until(lambda: recorder.received.get('/grasp/state', 0) == 1)
     for index in range(count):
         talker.frames.publish(make_frames(index))
         time.sleep(0.001)
-    assert wait_for(lambda: recorder.received['/tactile/frames'] == count)
+    assert wait_until(lambda: recorder.received['/tactile/frames'] == count)
     executor.remove_node(recorder.node)
     recorder.close()
     return bag, recorder
@@ -187,7 +180,7 @@ def test_forte_record_executable_stops_cleanly_on_sigint(executor, tmp_path):
     bag = tmp_path / 'cli_bag'
     with python_module('forte_bringup.record', '-o', str(bag),
                        '--topics', 'tactile/frames') as process:
-        assert wait_for(lambda: talker.frames.get_subscription_count() == 1, timeout=20.0)
+        assert wait_until(lambda: talker.frames.get_subscription_count() == 1, timeout=20.0)
         time.sleep(0.5)
         for index in range(100):
             talker.frames.publish(make_frames(index))

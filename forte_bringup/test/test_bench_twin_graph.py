@@ -23,11 +23,12 @@ pytest.importorskip('launch_ros', reason=REASON)
 
 import launch  # noqa: E402
 import yaml  # noqa: E402
-from graph_probe import bench_twin, force_model_file, wait_for, watching  # noqa: E402
+from graph_probe import bench_twin, force_model_file, watching  # noqa: E402
 from launch.actions import IncludeLaunchDescription  # noqa: E402
 from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
 
 from forte_bringup.graph import params_file  # noqa: E402
+from forte_ros.testing import wait_until  # noqa: E402
 
 LAUNCH = Path(__file__).resolve().parents[1] / 'launch' / 'hardware.launch.py'
 UP = 90.0
@@ -112,10 +113,10 @@ def test_a_forte_grasp_on_the_bench_twin_holds_the_object(grasp_object: str):
     with watching() as watcher:
         for node in ('serial_sensor', 'gripper_driver'):
             assert watcher.wait_for_lifecycle_state(node, 'active', UP) == 'active', node
-        assert wait_for(lambda: watcher.counts['tared'] > 20, WAIT), watcher.counts
-        assert wait_for(lambda: watcher.counts['joint_states'] > 10, WAIT), watcher.counts
-        assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
-        assert wait_for(lambda: watcher.truth is not None, WAIT)
+        assert wait_until(lambda: watcher.counts['tared'] > 20, WAIT), watcher.counts
+        assert wait_until(lambda: watcher.counts['joint_states'] > 10, WAIT), watcher.counts
+        assert wait_until(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
+        assert wait_until(lambda: watcher.truth is not None, WAIT)
         assert watcher.truth.object_state == SimGroundTruth.OBJECT_RESTING
         goal = Grasp.Goal(controller=Grasp.Goal.FORTE, lift_distance=GRASPS[grasp_object][1],
                           lift_speed=LIFT_SPEED, timeout=90.0)

@@ -21,7 +21,6 @@ from graph_probe import (
     force_model_file,
     interrupt,
     python_module,
-    wait_for,
     watching,
     write_quiet_bag,
 )
@@ -40,6 +39,7 @@ from forte_bringup.robot_model import (
     expand_gripper,
     robot_state_publisher_available,
 )
+from forte_ros.testing import wait_until
 
 
 def option_values(command: list[str], option: str) -> list[str]:
@@ -225,11 +225,11 @@ def test_hardware_graph_on_emulated_devices(watcher, tmp_path):
         bringup.start(timeout=60.0)
         try:
             # lifecycle nodes only publish once activated through change_state
-            assert wait_for(lambda: watcher.counts['tactile/frames'] > 50, 30.0), (
+            assert wait_until(lambda: watcher.counts['tactile/frames'] > 50, 30.0), (
                 watcher.counts, (tmp_path / 'logs' / 'serial_sensor.log').read_text()[-2000:])
-            assert wait_for(lambda: watcher.counts['joint_states'] > 10, 30.0), watcher.counts
-            assert wait_for(lambda: watcher.counts['tactile/state'] > 10, 30.0), watcher.counts
-            assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, 30.0)
+            assert wait_until(lambda: watcher.counts['joint_states'] > 10, 30.0), watcher.counts
+            assert wait_until(lambda: watcher.counts['tactile/state'] > 10, 30.0), watcher.counts
+            assert wait_until(lambda: watcher.counts['grasp/state'] >= 1, 30.0)
             bringup.check_children()
         finally:
             codes = bringup.stop()
@@ -257,9 +257,9 @@ def test_sim_graph_serves_a_grasp(watcher, tmp_path):
     bringup.start(timeout=60.0)
     try:
         # the controller refuses a goal before perception is tared and joint states flow
-        assert wait_for(lambda: watcher.counts['tared'] > 20, 30.0), watcher.counts
-        assert wait_for(lambda: watcher.counts['joint_states'] > 10, 30.0), watcher.counts
-        assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, 30.0)
+        assert wait_until(lambda: watcher.counts['tared'] > 20, 30.0), watcher.counts
+        assert wait_until(lambda: watcher.counts['joint_states'] > 10, 30.0), watcher.counts
+        assert wait_until(lambda: watcher.counts['grasp/state'] >= 1, 30.0)
         assert watcher.parameter('sim', 'real_time_factor') == 1.0
         time.sleep(0.5)
         assert watcher.truth is not None and watcher.truth.object_name == 'raspberry'
@@ -315,8 +315,8 @@ def test_replay_graph_drives_perception_from_a_bag(watcher, tmp_path):
                       echo=None)
     bringup.start(timeout=60.0)
     try:
-        assert wait_for(lambda: watcher.counts['tactile/state'] > 20, 30.0), watcher.counts
-        assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, 30.0)
+        assert wait_until(lambda: watcher.counts['tactile/state'] > 20, 30.0), watcher.counts
+        assert wait_until(lambda: watcher.counts['grasp/state'] >= 1, 30.0)
         bringup.check_children()
     finally:
         bringup.stop()

@@ -18,7 +18,7 @@ from collections import Counter
 
 import numpy as np
 import pytest
-from graph_probe import wait_for, watching
+from graph_probe import watching
 
 from forte_bringup.bringup import Bringup
 from forte_bringup.closed_loop import run_trial
@@ -30,7 +30,7 @@ from forte_perception.calibration import (
     train_model,
     training_sensor,
 )
-from forte_ros.testing import NodeProcess, ros_args
+from forte_ros.testing import NodeProcess, ros_args, wait_until
 from forte_sim.dataset import QUICK_PROTOCOL, generate_calibration_dataset
 
 #: Simulated seconds per wall second of the calibration runs (the procedure keeps up).
@@ -120,10 +120,10 @@ def raspberry_in_the_sim_graph(model_path, log_dir) -> None:
     with watching() as watcher:
         bringup.start(timeout=60.0)
         try:
-            assert wait_for(lambda: watcher.counts['tared'] > 20, 30.0), watcher.counts
-            assert wait_for(lambda: watcher.counts['joint_states'] > 10, 30.0)
-            assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, 30.0)
-            assert wait_for(lambda: watcher.status_values('perception: pipeline'), 10.0)
+            assert wait_until(lambda: watcher.counts['tared'] > 20, 30.0), watcher.counts
+            assert wait_until(lambda: watcher.counts['joint_states'] > 10, 30.0)
+            assert wait_until(lambda: watcher.counts['grasp/state'] >= 1, 30.0)
+            assert wait_until(lambda: watcher.status_values('perception: pipeline'), 10.0)
             values = watcher.status_values('perception: pipeline')
             assert values['force model'] == 'loaded', values
             assert values['model trained on device'] == values['sensor device'] == 'simulator'

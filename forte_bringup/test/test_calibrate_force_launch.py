@@ -11,29 +11,16 @@ REASON = ('launch / launch_ros need a ROS 2 install (or the launch kit, '
 launch = pytest.importorskip('launch', reason=REASON)
 launch_ros = pytest.importorskip('launch_ros', reason=REASON)
 
-from launch.actions import DeclareLaunchArgument, OpaqueFunction  # noqa: E402
-from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
 from launch_ros.actions import Node  # noqa: E402
+
+from forte_ros.testing import launch_file_actions, launch_file_description  # noqa: E402
 
 LAUNCH_FILE = Path(__file__).resolve().parents[1] / 'launch' / 'calibrate_force.launch.py'
 
 
-def description() -> launch.LaunchDescription:
-    source = PythonLaunchDescriptionSource(str(LAUNCH_FILE))
-    return source.get_launch_description(launch.LaunchContext())
-
-
 def started(**arguments: str) -> list:
-    """The actions the OpaqueFunction returns for ``arguments`` (others at their default)."""
-    context = launch.LaunchContext()
-    context.launch_configurations.update(arguments)
-    actions = []
-    for entity in description().entities:
-        if isinstance(entity, DeclareLaunchArgument):
-            entity.execute(context)
-        elif isinstance(entity, OpaqueFunction):
-            actions += entity.execute(context) or []
-    return actions
+    """The actions the launch file amounts to for ``arguments`` (others at their default)."""
+    return launch_file_actions(LAUNCH_FILE, **arguments)[1]
 
 
 def nodes(actions: list) -> dict[str, Node]:
@@ -45,7 +32,7 @@ def nodes(actions: list) -> dict[str, Node]:
 
 
 def test_every_argument_is_declared_with_a_description():
-    arguments = description().get_launch_arguments()
+    arguments = launch_file_description(LAUNCH_FILE).get_launch_arguments()
     names = [argument.name for argument in arguments]
     assert {'mode', 'session_dir', 'quick', 'load_cell_topic', 'load_cell_axis',
             'load_cell_sign', 'auto_continue', 'real_time_factor'} <= set(names)

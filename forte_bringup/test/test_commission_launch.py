@@ -19,47 +19,19 @@ REASON = ('launch / launch_ros need a ROS 2 install (or the launch kit, '
 launch = pytest.importorskip('launch', reason=REASON)
 launch_ros = pytest.importorskip('launch_ros', reason=REASON)
 
-from launch.actions import (  # noqa: E402
-    DeclareLaunchArgument,
-    ExecuteProcess,
-    IncludeLaunchDescription,
-    OpaqueFunction,
-    SetLaunchConfiguration,
-)
-from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
+from launch.actions import ExecuteProcess  # noqa: E402
 from launch_ros.actions import Node  # noqa: E402
+
+from forte_ros.testing import launch_file_actions, launch_file_description  # noqa: E402
 
 LAUNCH_FILE = Path(__file__).resolve().parents[1] / 'launch' / 'commission.launch.py'
 HARDWARE_NODES = ['serial_sensor_node', 'gripper_driver_node', 'perception_node',
                   'grasp_controller_node']
 
 
-def description() -> launch.LaunchDescription:
-    source = PythonLaunchDescriptionSource(str(LAUNCH_FILE))
-    return source.get_launch_description(launch.LaunchContext())
-
-
-def expand(entities: list, context: launch.LaunchContext) -> list:
-    """The actions ``entities`` amount to: arguments declared, OpaqueFunctions run and
-    included launch files opened as ``ros2 launch`` would; nothing is started."""
-    actions = []
-    for entity in entities:
-        if isinstance(entity, (DeclareLaunchArgument, SetLaunchConfiguration)):
-            entity.execute(context)
-        elif isinstance(entity, (OpaqueFunction, IncludeLaunchDescription)):
-            actions += expand(entity.execute(context) or [], context)
-        elif isinstance(entity, launch.LaunchDescription):
-            actions += expand(entity.entities, context)
-        else:
-            actions.append(entity)
-    return actions
-
-
 def started(**arguments: str) -> tuple[launch.LaunchContext, list]:
     """The actions of commission.launch.py for ``arguments`` (others at their default)."""
-    context = launch.LaunchContext()
-    context.launch_configurations.update(arguments)
-    return context, expand(description().entities, context)
+    return launch_file_actions(LAUNCH_FILE, **arguments)
 
 
 def parameters(node: Node, context: launch.LaunchContext) -> dict:
@@ -73,7 +45,8 @@ def parameters(node: Node, context: launch.LaunchContext) -> dict:
 
 
 def test_namespace_and_prefix_are_declared_with_a_description():
-    arguments = {argument.name: argument for argument in description().get_launch_arguments()}
+    arguments = {argument.name: argument
+                 for argument in launch_file_description(LAUNCH_FILE).get_launch_arguments()}
     assert {'target', 'namespace', 'prefix', 'sensor_fault'} <= set(arguments)
     for argument in arguments.values():
         assert len(argument.description) > 20, argument.name

@@ -32,27 +32,14 @@ from forte_bringup.graph_nodes import force_model_source
 from forte_bringup.robot_model import robot_state_publisher_available
 from forte_bringup.sim_force_model import force_model_path
 from forte_ros.contract import BASE_FRAME, JOINT_NAMES, joint_names, prefixed
+from forte_ros.testing import launch_file_actions, wait_until
 
 LAUNCH = Path(__file__).resolve().parents[1] / 'launch'
 
 
 def launch_actions(launch_file: str, **arguments: str) -> tuple[object, list]:
-    """The actions the launch file's OpaqueFunction returns for ``arguments`` (a context in
-    which the declared arguments were evaluated first, as ``ros2 launch`` does)."""
-    import launch
-    from launch.actions import DeclareLaunchArgument, OpaqueFunction
-    from launch.launch_description_sources import PythonLaunchDescriptionSource
-
-    context = launch.LaunchContext()
-    context.launch_configurations.update(arguments)
-    source = PythonLaunchDescriptionSource(str(LAUNCH / launch_file))
-    actions = []
-    for entity in source.get_launch_description(context).entities:
-        if isinstance(entity, DeclareLaunchArgument):
-            entity.execute(context)
-        elif isinstance(entity, OpaqueFunction):
-            actions += entity.execute(context) or []
-    return context, actions
+    """What ``launch/<launch_file>`` amounts to for ``arguments``; nothing is executed."""
+    return launch_file_actions(LAUNCH / launch_file, **arguments)
 
 
 def option_values(command: list[str], option: str) -> list[str]:
@@ -198,7 +185,7 @@ def test_force_calibration_launch_runs_in_a_namespace(mode: str):
 def test_forte_bringup_runs_a_namespaced_sim_graph(tmp_path: Path):
     """The bare-machine runner: the sim graph in ``/right`` with ``prefix:=right_``; nothing
     of it in the root namespace, its own clock, prefixed joints and frames."""
-    from graph_probe import wait_for, watching
+    from graph_probe import watching
 
     bringup = Bringup('sim', {'namespace': 'right', 'prefix': 'right_',
                               'object': 'raspberry'}, log_dir=tmp_path, echo=None)
@@ -206,9 +193,9 @@ def test_forte_bringup_runs_a_namespaced_sim_graph(tmp_path: Path):
         bringup.start(timeout=90.0)
         try:
             assert probe.lifecycle_state('sim') == 'active'
-            assert wait_for(lambda: probe.counts['tactile/frames'] > 20, 60.0), probe.counts
-            assert wait_for(lambda: probe.counts['tared'] > 5, 60.0), probe.counts
-            assert wait_for(lambda: probe.counts['grasp/state'] >= 1, 30.0), probe.counts
+            assert wait_until(lambda: probe.counts['tactile/frames'] > 20, 60.0), probe.counts
+            assert wait_until(lambda: probe.counts['tared'] > 5, 60.0), probe.counts
+            assert wait_until(lambda: probe.counts['grasp/state'] >= 1, 30.0), probe.counts
             assert probe.joint_names == list(joint_names('right_'))
             assert probe.frame_ids['tactile/frames'] == 'right_forte_base_link'
             assert probe.frame_ids['tactile/state'] == 'right_forte_base_link'

@@ -38,9 +38,11 @@ if not hasattr(control_actions, 'ParallelGripperCommand'):
                 allow_module_level=True)
 
 import launch  # noqa: E402
-from graph_probe import Watcher, wait_for, watching  # noqa: E402
+from graph_probe import Watcher, watching  # noqa: E402
 from launch.actions import IncludeLaunchDescription  # noqa: E402
 from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
+
+from forte_ros.testing import gripper_goal, parallel_gripper_goal, wait_until  # noqa: E402
 
 GripperCommand = control_actions.GripperCommand
 ParallelGripperCommand = control_actions.ParallelGripperCommand
@@ -112,12 +114,12 @@ def send(watcher: Watcher, action_type: Any, name: str, goal: Any,
         feedback: list = []
         future = call_in_executor(watcher.executor, client.send_goal_async, goal,
                                   lambda message: feedback.append(message.feedback))
-        assert wait_for(future.done, timeout), f'{name}: goal not answered'
+        assert wait_until(future.done, timeout), f'{name}: goal not answered'
         handle = future.result()
         if not handle.accepted:
             return False, None, None, feedback
         result_future = call_in_executor(watcher.executor, handle.get_result_async)
-        if not wait_for(result_future.done, timeout):
+        if not wait_until(result_future.done, timeout):
             return True, None, None, feedback
         answer = result_future.result()
         return True, answer.status, answer.result, feedback
@@ -125,21 +127,6 @@ def send(watcher: Watcher, action_type: Any, name: str, goal: Any,
         watcher.destroy_action_client(client)
 
 
-def parallel_goal(names: list[str], positions: list[float], velocity: list[float] = (),
-                  effort: list[float] = ()) -> Any:
-    goal = ParallelGripperCommand.Goal()
-    goal.command.name = list(names)
-    goal.command.position = [float(p) for p in positions]
-    goal.command.velocity = [float(v) for v in velocity]
-    goal.command.effort = [float(e) for e in effort]
-    return goal
-
-
-def gripper_goal(position: float, max_effort: float = 0.0) -> Any:
-    goal = GripperCommand.Goal()
-    goal.command.position = float(position)
-    goal.command.max_effort = float(max_effort)
-    return goal
 
 
 def at(watcher: Watcher, position: float) -> bool:
@@ -159,8 +146,8 @@ def graph_up(watcher: Watcher) -> None:
     """Wait until the graph runs (in the test: the launch service, which activates ``sim``,
     only runs while a test or the launch fixture does)."""
     assert watcher.wait_for_lifecycle_state('sim', 'active', UP) == 'active'
-    assert wait_for(lambda: watcher.counts['joint_states'] > 10, WAIT), watcher.counts
-    assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
+    assert wait_until(lambda: watcher.counts['joint_states'] > 10, WAIT), watcher.counts
+    assert wait_until(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
 
 
 @pytest.mark.slow
@@ -169,7 +156,7 @@ def test_parallel_gripper_command_moves_the_simulated_gripper(probe):
     watcher, seen = probe
     graph_up(watcher)
     start = list(watcher.joint_positions)
-    goal = parallel_goal([LEFT, RIGHT], [0.8, 0.8], velocity=[0.6, 0.6], effort=[0.5, 0.5])
+    goal = parallel_gripper_goal([LEFT, RIGHT], [0.8, 0.8], velocity=[0.6, 0.6], effort=[0.5, 0.5])
     accepted, status, result, feedback = send(watcher, ParallelGripperCommand,
                                               'parallel_gripper_cmd', goal)
     assert accepted and status == STATUS_SUCCEEDED, (status, seen.log[-5:])
@@ -178,7 +165,7 @@ def test_parallel_gripper_command_moves_the_simulated_gripper(probe):
     assert list(state.name) == [LEFT, RIGHT]
     assert all(abs(p - 0.8) <= TOLERANCE for p in state.position), state
     assert len(state.effort) == 2 and all(math.isfinite(e) for e in state.effort), state
-    assert wait_for(lambda: at(watcher, 0.8), 10.0), (start, watcher.joint_positions)
+    assert wait_until(lambda: at(watcher, 0.8), 10.0), (start, watcher.joint_positions)
     command = seen.servo[-1]
     assert (command.position, command.max_current, command.profile_velocity) == \
         pytest.approx((0.8, 0.5, 0.6)), command
@@ -187,11 +174,11 @@ def test_parallel_gripper_command_moves_the_simulated_gripper(probe):
           f'result {list(state.position)} rad, {list(state.effort)} A, '
           f'{len(feedback)} feedback messages')
     # one finger joint names the gripper angle too
-    goal = parallel_goal([RIGHT], [0.7])
+    goal = parallel_gripper_goal([RIGHT], [0.7])
     accepted, status, result, _ = send(watcher, ParallelGripperCommand,
                                        'parallel_gripper_cmd', goal)
     assert accepted and status == STATUS_SUCCEEDED and result.reached_goal, seen.log[-5:]
-    assert wait_for(lambda: at(watcher, 0.7), 10.0), watcher.joint_positions
+    assert wait_until(lambda: at(watcher, 0.7), 10.0), watcher.joint_positions
     assert seen.servo[-1].position == pytest.approx(0.7)
 
 
@@ -206,7 +193,7 @@ def test_gripper_command_moves_the_simulated_gripper(probe):
     assert result.reached_goal and not result.stalled
     assert result.position == pytest.approx(0.85, abs=TOLERANCE)
     assert math.isfinite(result.effort)
-    assert wait_for(lambda: at(watcher, 0.85), 10.0), watcher.joint_positions
+    assert wait_until(lambda: at(watcher, 0.85), 10.0), watcher.joint_positions
     command = seen.servo[-1]
     assert (command.position, command.max_current) == pytest.approx((0.85, 0.4)), command
 
@@ -220,14 +207,14 @@ def test_invalid_goals_are_rejected_with_the_reason(probe):
     parallel = (ParallelGripperCommand, 'parallel_gripper_cmd')
     gripper = (GripperCommand, 'gripper_cmd')
     refused = [
-        (parallel, parallel_goal(['forte_finger_joint'], [0.5]),
+        (parallel, parallel_gripper_goal(['forte_finger_joint'], [0.5]),
          "unknown joint(s) 'forte_finger_joint'"),
-        (parallel, parallel_goal([LEFT, RIGHT], [0.5, 0.6]), 'positions differ'),
-        (parallel, parallel_goal([LEFT], [math.nan]), 'nan rad is not a finite number'),
-        (parallel, parallel_goal([LEFT], [-0.3]), 'position -0.3000 rad outside'),
-        (parallel, parallel_goal([LEFT, RIGHT], [0.5, 0.5], velocity=[0.2, 0.3]),
+        (parallel, parallel_gripper_goal([LEFT, RIGHT], [0.5, 0.6]), 'positions differ'),
+        (parallel, parallel_gripper_goal([LEFT], [math.nan]), 'nan rad is not a finite number'),
+        (parallel, parallel_gripper_goal([LEFT], [-0.3]), 'position -0.3000 rad outside'),
+        (parallel, parallel_gripper_goal([LEFT, RIGHT], [0.5, 0.5], velocity=[0.2, 0.3]),
          'unequal velocity values'),
-        (parallel, parallel_goal([], []), 'no joint named'),
+        (parallel, parallel_gripper_goal([], []), 'no joint named'),
         (gripper, gripper_goal(math.inf), 'inf rad is not a finite number'),
         (gripper, gripper_goal(0.5, max_effort=-1.0), 'max_effort -1.0 A is negative'),
     ]
@@ -235,6 +222,6 @@ def test_invalid_goals_are_rejected_with_the_reason(probe):
         accepted, _, _, _ = send(watcher, action_type, name, goal)
         assert not accepted, reason
         logged = functools.partial(seen.logged, f'{name} goal rejected: ', reason)
-        assert wait_for(logged, 10.0), (name, reason, seen.log[-5:])
+        assert wait_until(logged, 10.0), (name, reason, seen.log[-5:])
     time.sleep(0.5)
     assert len(seen.servo) == commands, 'a refused goal moved the gripper'

@@ -22,8 +22,7 @@ launch = pytest.importorskip('launch', reason=REASON)
 launch_ros = pytest.importorskip('launch_ros', reason=REASON)
 
 import yaml  # noqa: E402
-from launch.actions import DeclareLaunchArgument, LogInfo, OpaqueFunction  # noqa: E402
-from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
+from launch.actions import LogInfo  # noqa: E402
 from launch_ros.actions import Node  # noqa: E402
 from launch_ros.substitutions import ExecutableInPackage  # noqa: E402
 from robot_model_probe import (  # noqa: E402
@@ -33,31 +32,19 @@ from robot_model_probe import (  # noqa: E402
 
 from forte_bringup.graph import GRAPHS  # noqa: E402
 from forte_bringup.robot_model import ROBOT_STATE_PUBLISHER_MISSING, expand_gripper  # noqa: E402
+from forte_ros.testing import launch_file_actions, launch_file_description  # noqa: E402
 
 LAUNCH = Path(__file__).resolve().parents[1] / 'launch'
 
 
 def description(graph: str) -> launch.LaunchDescription:
     """The launch description of ``launch/<graph>.launch.py``."""
-    source = PythonLaunchDescriptionSource(str(LAUNCH / f'{graph}.launch.py'))
-    return source.get_launch_description(launch.LaunchContext())
+    return launch_file_description(LAUNCH / f'{graph}.launch.py')
 
 
 def started_actions(graph: str, **arguments: str) -> tuple[launch.LaunchContext, list]:
-    """The actions the launch file's node-creating OpaqueFunction returns for ``arguments``.
-
-    The declared arguments are evaluated as ``ros2 launch`` would (given values first,
-    defaults for the rest), then the OpaqueFunction runs; nothing is executed.
-    """
-    context = launch.LaunchContext()
-    context.launch_configurations.update(arguments)
-    actions = []
-    for entity in description(graph).entities:
-        if isinstance(entity, DeclareLaunchArgument):
-            entity.execute(context)
-        elif isinstance(entity, OpaqueFunction):
-            actions += entity.execute(context) or []
-    return context, actions
+    """What ``launch/<graph>.launch.py`` amounts to for ``arguments``; nothing is executed."""
+    return launch_file_actions(LAUNCH / f'{graph}.launch.py', **arguments)
 
 
 @pytest.mark.parametrize('graph', sorted(GRAPHS))

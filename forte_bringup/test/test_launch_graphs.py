@@ -37,12 +37,13 @@ import launch  # noqa: E402
 from graph_probe import (  # noqa: E402
     emulated_devices,
     force_model_file,
-    wait_for,
     watching,
     write_quiet_bag,
 )
 from launch.actions import IncludeLaunchDescription  # noqa: E402
 from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
+
+from forte_ros.testing import wait_until  # noqa: E402
 
 LAUNCH = Path(__file__).resolve().parents[1] / 'launch'
 #: Longest wait for a graph to come up and for each expectation [s] (2 shared cores).
@@ -82,16 +83,16 @@ def test_sim_graph_serves_a_grasp():
     from forte_msgs.msg import SimGroundTruth
 
     with watching() as watcher:
-        assert wait_for(lambda: {'sim', 'perception', 'grasp_controller', 'visualization'}
+        assert wait_until(lambda: {'sim', 'perception', 'grasp_controller', 'visualization'}
                         <= set(watcher.get_node_names()), UP), watcher.get_node_names()
         # the launch file configures, then activates once inactive
         assert watcher.wait_for_lifecycle_state('sim', 'active', UP) == 'active'
         assert watcher.parameter('sim', 'real_time_factor') == 1.25
-        assert wait_for(lambda: watcher.counts['tactile/frames'] > 50, WAIT), watcher.counts
+        assert wait_until(lambda: watcher.counts['tactile/frames'] > 50, WAIT), watcher.counts
         # the controller refuses a goal before perception is tared and joint states flow
-        assert wait_for(lambda: watcher.counts['tared'] > 20, WAIT), watcher.counts
-        assert wait_for(lambda: watcher.counts['joint_states'] > 10, WAIT), watcher.counts
-        assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
+        assert wait_until(lambda: watcher.counts['tared'] > 20, WAIT), watcher.counts
+        assert wait_until(lambda: watcher.counts['joint_states'] > 10, WAIT), watcher.counts
+        assert wait_until(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
         goal = Grasp.Goal(controller=Grasp.Goal.FORTE, lift_distance=0.01, timeout=60.0)
         accepted, result, feedback = watcher.grasp(goal, timeout=180.0)
         assert accepted, watcher.last_grasp_state
@@ -117,10 +118,10 @@ def replay_launch(quiet_bag: Path) -> launch.LaunchDescription:
 @pytest.mark.launch(fixture=replay_launch)
 def test_replay_graph_drives_perception_from_a_bag():
     with watching() as watcher:
-        assert wait_for(lambda: watcher.counts['tactile/state'] > 20, UP), watcher.counts
-        assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
+        assert wait_until(lambda: watcher.counts['tactile/state'] > 20, UP), watcher.counts
+        assert wait_until(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
         # node names arrive by discovery, which may trail the data under load
-        assert wait_for(lambda: {'bag_replay', 'perception', 'grasp_controller',
+        assert wait_until(lambda: {'bag_replay', 'perception', 'grasp_controller',
                                  'visualization'} <= set(watcher.get_node_names()), WAIT), \
             watcher.get_node_names()
 
@@ -143,9 +144,9 @@ def test_hardware_graph_on_emulated_devices():
     with watching() as watcher:
         for node in ('serial_sensor', 'gripper_driver'):
             assert watcher.wait_for_lifecycle_state(node, 'active', UP) == 'active', node
-        assert wait_for(lambda: watcher.counts['tactile/frames'] > 50, WAIT), watcher.counts
-        assert wait_for(lambda: watcher.counts['joint_states'] > 10, WAIT), watcher.counts
-        assert wait_for(lambda: watcher.counts['tactile/state'] > 10, WAIT), watcher.counts
-        assert wait_for(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
-        assert wait_for(lambda: 'visualization' in watcher.get_node_names(), WAIT), \
+        assert wait_until(lambda: watcher.counts['tactile/frames'] > 50, WAIT), watcher.counts
+        assert wait_until(lambda: watcher.counts['joint_states'] > 10, WAIT), watcher.counts
+        assert wait_until(lambda: watcher.counts['tactile/state'] > 10, WAIT), watcher.counts
+        assert wait_until(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
+        assert wait_until(lambda: 'visualization' in watcher.get_node_names(), WAIT), \
             watcher.get_node_names()

@@ -40,11 +40,12 @@ launch_pytest = pytest.importorskip('launch_pytest', reason=REASON)
 pytest.importorskip('launch_ros', reason=REASON)
 
 import launch  # noqa: E402
-from graph_probe import Watcher, wait_for, watching  # noqa: E402
+from graph_probe import Watcher, watching  # noqa: E402
 from launch.actions import GroupAction, IncludeLaunchDescription  # noqa: E402
 from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
 
 from forte_ros.contract import BASE_FRAME, JOINT_NAMES  # noqa: E402
+from forte_ros.testing import wait_until  # noqa: E402
 
 LAUNCH = Path(__file__).resolve().parents[1] / 'launch'
 #: Longest wait for the graphs to come up and for each expectation [s] (2 shared cores).
@@ -148,22 +149,22 @@ def test_two_namespaced_sim_grippers_share_only_ros_wide_names_and_both_lift():
         for probe in probes:
             # the launch file configures, then activates once inactive
             assert probe.wait_for_lifecycle_state('sim', 'active', UP) == 'active'
-            assert wait_for(lambda p=probe: p.counts['tared'] > 20, WAIT), probe.counts
-            assert wait_for(lambda p=probe: p.counts['joint_states'] > 10, WAIT), probe.counts
-            assert wait_for(lambda p=probe: p.counts['grasp/state'] >= 1, WAIT), probe.counts
-            assert wait_for(lambda p=probe: p.truth is not None, WAIT)
+            assert wait_until(lambda p=probe: p.counts['tared'] > 20, WAIT), probe.counts
+            assert wait_until(lambda p=probe: p.counts['joint_states'] > 10, WAIT), probe.counts
+            assert wait_until(lambda p=probe: p.counts['grasp/state'] >= 1, WAIT), probe.counts
+            assert wait_until(lambda p=probe: p.truth is not None, WAIT)
             # no force_model argument: the sim graph's default, the simulated rig's model
             assert probe.parameter('perception', 'model_path') == str(force_model_path())
         # /diagnostics is shared: each status names its node with the namespace
         for node in ('sim', 'perception', 'grasp_controller'):
             for namespace, _ in GRAPHS:
                 path = f'{namespace}/{node}'.lstrip('/')
-                assert wait_for(lambda p=path: any(name.startswith(f'{p}: ')
+                assert wait_until(lambda p=path: any(name.startswith(f'{p}: ')
                                                    for name in left.statuses), WAIT), path
         commands = [watch_frames(probe) for probe in probes]
         seen: list[set[str]] = [set(), set()]
         for index, (namespace, _) in enumerate(GRAPHS):
-            assert wait_for(lambda i=index, n=namespace: seen[i].update(
+            assert wait_until(lambda i=index, n=namespace: seen[i].update(
                 graph_names(left, n)) or bool(seen[i]), WAIT), namespace
         results: dict[str, Any] = {}
         started = time.monotonic()

@@ -22,39 +22,24 @@ launch = pytest.importorskip('launch', reason=REASON)
 pytest.importorskip('launch_ros', reason=REASON)
 launch_pytest = pytest.importorskip('launch_pytest', reason=REASON)
 
-from graph_probe import wait_for, watching, write_quiet_bag  # noqa: E402
-from launch.actions import (  # noqa: E402
-    DeclareLaunchArgument,
-    IncludeLaunchDescription,
-    OpaqueFunction,
-)
+from graph_probe import watching, write_quiet_bag  # noqa: E402
+from launch.actions import IncludeLaunchDescription  # noqa: E402
 from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
 from launch_ros.actions import Node  # noqa: E402
 
 from forte_bringup.graph import GRAPHS, overlay_nodes  # noqa: E402
 from forte_perception.evaluation.threshold_sweep import write_overlay  # noqa: E402
 from forte_perception.slip.params import SlipParams  # noqa: E402
+from forte_ros.testing import launch_file_actions, launch_file_description, wait_until  # noqa: E402
 
 LAUNCH = Path(__file__).resolve().parents[1] / 'launch'
 TUNED = SlipParams(mode='paper', threshold=1.5)
 UP = 90.0
 
 
-def description(graph: str) -> launch.LaunchDescription:
-    source = PythonLaunchDescriptionSource(str(LAUNCH / f'{graph}.launch.py'))
-    return source.get_launch_description(launch.LaunchContext())
-
-
 def node_parameters(graph: str, **arguments: str) -> dict[str, list]:
     """Node name -> the ``parameters`` list its launch_ros Node gets (nothing started)."""
-    context = launch.LaunchContext()
-    context.launch_configurations.update(arguments)
-    actions = []
-    for entity in description(graph).entities:
-        if isinstance(entity, DeclareLaunchArgument):
-            entity.execute(context)
-        elif isinstance(entity, OpaqueFunction):
-            actions += entity.execute(context) or []
+    _, actions = launch_file_actions(LAUNCH / f'{graph}.launch.py', **arguments)
     found = {}
     for action in actions:
         if isinstance(action, Node) and action.node_executable != 'forte_record':
@@ -84,7 +69,8 @@ def overlay_file(tmp_path: Path) -> Path:
 
 @pytest.mark.parametrize('graph', sorted(GRAPHS))
 def test_every_launch_file_declares_the_overlay(graph: str):
-    (argument,) = [a for a in description(graph).get_launch_arguments()
+    (argument,) = [a for a in launch_file_description(LAUNCH / f'{graph}.launch.py')
+                   .get_launch_arguments()
                    if a.name == 'params_overlay']
     assert argument.default_value[0].perform(launch.LaunchContext()) == ''
     assert 'params_file' in argument.description and len(argument.description) > 40
@@ -138,12 +124,12 @@ def replay_with_overlay(quiet_bag: Path, overlay_file: Path) -> launch.LaunchDes
 @pytest.mark.launch(fixture=replay_with_overlay)
 def test_perception_comes_up_with_the_overlay_setting():
     with watching() as watcher:
-        assert wait_for(lambda: 'perception' in set(watcher.get_node_names()), UP), \
+        assert wait_until(lambda: 'perception' in set(watcher.get_node_names()), UP), \
             watcher.get_node_names()
-        assert wait_for(lambda: watcher.parameter('perception', 'slip_threshold') is not None,
+        assert wait_until(lambda: watcher.parameter('perception', 'slip_threshold') is not None,
                         UP)
         assert watcher.parameter('perception', 'slip_threshold') == 1.5
         assert watcher.parameter('perception', 'slip_mode') == 'paper'
         # replay.yaml's own values that the overlay does not name stay in force
         assert watcher.parameter('perception', 'slip_window') == 400
-        assert wait_for(lambda: watcher.counts['tactile/state'] > 5, UP), watcher.counts
+        assert wait_until(lambda: watcher.counts['tactile/state'] > 5, UP), watcher.counts

@@ -24,9 +24,11 @@ launch_pytest = pytest.importorskip('launch_pytest', reason=REASON)
 pytest.importorskip('launch_ros', reason=REASON)
 
 import launch  # noqa: E402
-from graph_probe import wait_for, watching  # noqa: E402
+from graph_probe import watching  # noqa: E402
 from launch.actions import ExecuteProcess, IncludeLaunchDescription  # noqa: E402
 from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
+
+from forte_ros.testing import wait_until  # noqa: E402
 
 LAUNCH = Path(__file__).resolve().parents[1] / 'launch'
 SEED = 7
@@ -64,8 +66,8 @@ def sim_lift(bag_dir: Path) -> launch.LaunchDescription:
 def test_the_lift_slips_the_apple_on_the_sim_graph():
     with watching() as watcher:
         assert watcher.wait_for_lifecycle_state('sim', 'active', UP) == 'active'
-        assert wait_for(lambda: 'slip_lift' in watcher.get_node_names(), UP)
-        assert wait_for(lambda: 'slip_lift' not in watcher.get_node_names(), UP), \
+        assert wait_until(lambda: 'slip_lift' in watcher.get_node_names(), UP)
+        assert wait_until(lambda: 'slip_lift' not in watcher.get_node_names(), UP), \
             'the lift did not finish'
         time.sleep(2.0)                  # the lift process exits (0) before the shutdown
         truth = watcher.truth

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import pytest
 from geometry_msgs.msg import WrenchStamped
-from graph_probe import force_model_file, wait_for, watching
+from graph_probe import force_model_file, watching
 from test_gripper_urdf_macro import Tree
 from view_files import (
     ROBOT_STATE_PUBLISHER_TOPICS,
@@ -45,6 +45,7 @@ from forte_bringup.robot_model import (
 )
 from forte_bringup.visualization_node import WRENCH_TOPICS
 from forte_ros import contract
+from forte_ros.testing import wait_until
 
 #: Longest wait for the graph and for each expectation [s] (2 shared cores).
 UP = 90.0
@@ -130,14 +131,14 @@ def test_the_running_sim_graph_has_every_view_topic_and_the_urdf_joints(tmp_path
             def graph_topics() -> dict[str, list[str]]:
                 return dict(probe.get_topic_names_and_types())
 
-            assert wait_for(lambda: set(required) <= set(graph_topics()), WAIT), \
+            assert wait_until(lambda: set(required) <= set(graph_topics()), WAIT), \
                 sorted(set(required) - set(graph_topics()))
             topics = graph_topics()
             for name, kind in required.items():
                 assert topics[name] == [kind], (name, topics[name], kind)
             # the pad wrenches flow (not only advertised): the graph's tactile states reach
             # the visualization node
-            assert wait_for(lambda: len(wrenches) > 5, WAIT), (len(wrenches), probe.counts)
+            assert wait_until(lambda: len(wrenches) > 5, WAIT), (len(wrenches), probe.counts)
             assert wrenches[-1].header.frame_id == contract.PAD_FRAMES[0]
             if not running:
                 assert not set(ROBOT_STATE_PUBLISHER_TOPICS) & set(topics), sorted(topics)
@@ -145,7 +146,7 @@ def test_the_running_sim_graph_has_every_view_topic_and_the_urdf_joints(tmp_path
                          if ROBOT_STATE_PUBLISHER_MISSING in line]
                 assert lines == [f'[forte_bringup] {ROBOT_STATE_PUBLISHER_MISSING}'], lines
             # the joints of the live joint_states are the URDF's movable joints
-            assert wait_for(lambda: probe.counts['joint_states'] > 5, WAIT), probe.counts
+            assert wait_until(lambda: probe.counts['joint_states'] > 5, WAIT), probe.counts
             time.sleep(0.2)
             assert len(probe.joint_names) == len(set(probe.joint_names))
             assert set(probe.joint_names) == tree.movable, (probe.joint_names, tree.movable)
@@ -154,7 +155,7 @@ def test_the_running_sim_graph_has_every_view_topic_and_the_urdf_joints(tmp_path
             if running:
                 for pad, joints in chains.items():
                     links = [tree.joints[j].find('child').get('link') for j in joints]
-                    assert wait_for(lambda links=links: set(links) <= set(tf.parents), WAIT), (
+                    assert wait_until(lambda links=links: set(links) <= set(tf.parents), WAIT), (
                         pad, tf.parents)
                     for joint, link in zip(joints, links, strict=True):
                         assert tf.parents[link] == tree.joints[joint].find(

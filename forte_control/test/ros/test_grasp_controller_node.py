@@ -41,6 +41,7 @@ from forte_msgs.msg import GraspState as GraspStateMsg
 from forte_msgs.msg import ServoCommand, TactileState
 from forte_msgs.srv import ResetFault
 from forte_ros.qos import COMMANDS, DIAGNOSTICS, GRASP_STATE, TACTILE_STATE, reliable
+from forte_ros.testing import gripper_goal
 
 STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED = 4, 5, 6  # action_msgs/msg/GoalStatus
 
@@ -542,10 +543,7 @@ def test_gripper_command_action(harness):
     client = ActionClient(harness.client_node, control_msgs.GripperCommand, 'gripper_cmd')
     assert harness.spin_until(client.server_is_ready)
     harness.world.object_present = False
-    goal = control_msgs.GripperCommand.Goal()
-    goal.command.position = 0.3
-    goal.command.max_effort = 0.5
-    sent = client.send_goal_async(goal)
+    sent = client.send_goal_async(gripper_goal(0.3, max_effort=0.5))
     assert harness.spin_until(sent.done)
     handle = sent.result()
     assert handle.accepted
@@ -561,7 +559,7 @@ def test_gripper_command_action(harness):
     harness.world.theta = 0.7
     harness.world.command = None
     harness.lifting()
-    sent = client.send_goal_async(goal)
+    sent = client.send_goal_async(gripper_goal(0.3, max_effort=0.5))
     assert harness.spin_until(sent.done)
     assert not sent.result().accepted
     client.destroy()

@@ -32,6 +32,8 @@ from test_grasp_controller_node import (  # noqa: E402  (the fake world and its 
     Harness,
 )
 
+from forte_ros.testing import gripper_goal, parallel_gripper_goal  # noqa: E402
+
 GripperCommand = control_actions.GripperCommand
 ParallelGripperCommand = control_actions.ParallelGripperCommand
 LEFT, RIGHT = 'forte_left_finger_joint', 'forte_right_finger_joint'
@@ -57,20 +59,6 @@ def harness(ros_context):
     rig.close()
 
 
-def parallel_goal(names, positions, velocity=(), effort=()):
-    goal = ParallelGripperCommand.Goal()
-    goal.command.name = list(names)
-    goal.command.position = [float(p) for p in positions]
-    goal.command.velocity = [float(v) for v in velocity]
-    goal.command.effort = [float(e) for e in effort]
-    return goal
-
-
-def gripper_goal(position, max_effort=0.0):
-    goal = GripperCommand.Goal()
-    goal.command.position = float(position)
-    goal.command.max_effort = float(max_effort)
-    return goal
 
 
 def send(harness, client, goal, feedback=None):
@@ -91,7 +79,7 @@ def test_parallel_gripper_command_moves_and_reports_the_state(harness):
     harness.world.object_present = False
     feedback = []
     handle = send(harness, harness.parallel,
-                  parallel_goal([LEFT, RIGHT], [0.3, 0.3], velocity=[1.0, 1.0],
+                  parallel_gripper_goal([LEFT, RIGHT], [0.3, 0.3], velocity=[1.0, 1.0],
                                 effort=[0.5, 0.5]), feedback)
     assert handle.accepted
     response = finish(harness, handle)
@@ -110,7 +98,7 @@ def test_parallel_gripper_command_moves_and_reports_the_state(harness):
     assert list(feedback[0].state.name) == [LEFT, RIGHT]
     assert feedback[0].state.position[0] > 0.3 + 0.02
     # one finger joint, no velocity or effort: the controller's release_speed and max_current
-    handle = send(harness, harness.parallel, parallel_goal([RIGHT], [0.6]))
+    handle = send(harness, harness.parallel, parallel_gripper_goal([RIGHT], [0.6]))
     assert handle.accepted and finish(harness, handle).result.reached_goal
     command = harness.world.servo_log[-1][1]
     assert (command.position, command.max_current, command.profile_velocity) == \
@@ -137,7 +125,7 @@ def test_gripper_command_result_and_feedback(harness):
 def test_a_blocked_gripper_stalls_short_of_the_goal(harness):
     # the object blocks the fingers at 0.3 rad: the move ends at release_timeout (3 s),
     # succeeded, stalled, not reached (MoveIt's allow_failure / allow_stalling cases)
-    handle = send(harness, harness.parallel, parallel_goal([LEFT], [0.1]))
+    handle = send(harness, harness.parallel, parallel_gripper_goal([LEFT], [0.1]))
     assert handle.accepted
     response = finish(harness, handle, timeout=6.0)
     assert response.status == STATUS_SUCCEEDED
@@ -154,7 +142,7 @@ def test_one_gripper_goal_at_a_time_and_none_during_a_grasp(harness):
     assert first.accepted
     harness.spin_for(0.05)  # its execute callback has started
     # a second goal of either action is refused while the first moves
-    assert not send(harness, harness.parallel, parallel_goal([LEFT], [0.6])).accepted
+    assert not send(harness, harness.parallel, parallel_gripper_goal([LEFT], [0.6])).accepted
     assert not send(harness, harness.gripper, gripper_goal(0.6)).accepted
     assert finish(harness, first).result.reached_goal
     # and while a grasp runs
@@ -163,19 +151,19 @@ def test_one_gripper_goal_at_a_time_and_none_during_a_grasp(harness):
     harness.world.theta = 0.7
     harness.world.command = None
     grasp = harness.lifting()
-    assert not send(harness, harness.parallel, parallel_goal([LEFT], [0.6])).accepted
+    assert not send(harness, harness.parallel, parallel_gripper_goal([LEFT], [0.6])).accepted
     assert harness.result(grasp).status in (STATUS_SUCCEEDED, STATUS_ABORTED)
     # idle again: accepted
-    handle = send(harness, harness.parallel, parallel_goal([LEFT, RIGHT], [0.8, 0.8]))
+    handle = send(harness, harness.parallel, parallel_gripper_goal([LEFT, RIGHT], [0.8, 0.8]))
     assert handle.accepted and finish(harness, handle).status == STATUS_SUCCEEDED
 
 
 def test_invalid_parallel_goal_is_refused_before_any_motion(harness):
     count = len(harness.world.servo_log)
-    for goal in (parallel_goal(['gripper_joint'], [0.5]),
-                 parallel_goal([LEFT, RIGHT], [0.5, 0.55]),
-                 parallel_goal([LEFT], [float('nan')]),
-                 parallel_goal([LEFT], [0.5], effort=[-1.0])):
+    for goal in (parallel_gripper_goal(['gripper_joint'], [0.5]),
+                 parallel_gripper_goal([LEFT, RIGHT], [0.5, 0.55]),
+                 parallel_gripper_goal([LEFT], [float('nan')]),
+                 parallel_gripper_goal([LEFT], [0.5], effort=[-1.0])):
         assert not send(harness, harness.parallel, goal).accepted
     harness.spin_for(0.2)
     assert len(harness.world.servo_log) == count

@@ -18,6 +18,7 @@ from dynamixel_sdk import (
 
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import protocol as proto
+from forte_ros.testing import wait_until
 from forte_sim.bench_devices.simulated_servo import SimulatedServoProcess, SimulatedXM430
 
 # -- the servo model alone (no I/O) --------------------------------------------------
@@ -209,8 +210,7 @@ def test_one_sync_write_packet_moves_both_servos(bus, port):
                  + ct.encode_value(ct.GOAL_POSITION, goal))
         assert writer.addParam(servo_id, list(block))
     assert writer.txPacket() == COMM_SUCCESS
-    time.sleep(0.2)
-    assert bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 1
+    assert wait_until(lambda: bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 1, 5.0)
     assert bus.register_value(1, 'Goal Position') == 2148
     assert bus.register_value(2, 'Goal Position') == 1948
     assert bus.register_value(1, 'Goal Current') == 200
@@ -218,15 +218,13 @@ def test_one_sync_write_packet_moves_both_servos(bus, port):
     reader = GroupSyncRead(port, handler, 132, 4)
     reader.addParam(1)
     reader.addParam(2)
-    deadline = time.monotonic() + 5.0
-    positions = None
-    while time.monotonic() < deadline:
-        if reader.txRxPacket() == COMM_SUCCESS:
-            positions = (reader.getData(1, 132, 4), reader.getData(2, 132, 4))
-            if positions == (2148, 1948):
-                break
-        time.sleep(0.05)
-    assert positions == (2148, 1948)
+
+    def present_positions() -> tuple[int, int] | None:
+        if reader.txRxPacket() != COMM_SUCCESS:
+            return None
+        return reader.getData(1, 132, 4), reader.getData(2, 132, 4)
+
+    assert wait_until(lambda: present_positions() == (2148, 1948), 5.0)
     for servo_id in (1, 2):
         handler.write1ByteTxRx(port, servo_id, 64, 0)
 

@@ -1,6 +1,5 @@
 """Gripper core on the real dynamixel-sdk against the simulated servo pair on a pty."""
 import math
-import time
 
 import pytest
 
@@ -14,6 +13,7 @@ from forte_driver.dynamixel.gripper import (
     GripperLimits,
     check_command,
 )
+from forte_ros.testing import wait_until
 from forte_sim.bench_devices.simulated_servo import SimulatedServoProcess
 
 LIMITS = GripperLimits(theta_min=0.0, theta_max=1.0, current_limit=1.0,
@@ -43,15 +43,6 @@ def _read_state(gripper, attempts=3):
             if attempt == attempts - 1:
                 raise
 
-
-def _wait_for(predicate, timeout=5.0):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(0.02)
-    return predicate()
 
 
 # -- pure command validation ------------------------------------------------------------
@@ -162,7 +153,7 @@ def test_command_is_one_sync_write_packet_for_both_servos(bus, gripper):
     before = bus.count(proto.INSTRUCTION_SYNC_WRITE)
     check = gripper.command(0.5, 0.3, 2.0)
     assert check.accepted and not check.clipped
-    assert _wait_for(lambda: bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 1)
+    assert wait_until(lambda: bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 1)
     sync_writes = [p for p in bus.packet_log() if p[0] == proto.INSTRUCTION_SYNC_WRITE]
     instruction, device_id, parameters = sync_writes[-1]
     assert device_id == proto.BROADCAST_ID
@@ -173,7 +164,7 @@ def test_command_is_one_sync_write_packet_for_both_servos(bus, gripper):
     assert bus.register_value(1, 'Goal Current') == 111  # 0.3 A / 2.69 mA, toward zero
     assert bus.register_value(2, 'Profile Velocity') == 83  # 2 rad/s / 0.0239809
     # Both fingers arrive; state reports theta in rad on both (mirrored) fingers.
-    state = _wait_for(lambda: (lambda s: s if abs(s['left'].theta - 0.5) < 2e-3
+    state = wait_until(lambda: (lambda s: s if abs(s['left'].theta - 0.5) < 2e-3
                                and abs(s['right'].theta - 0.5) < 2e-3
                                and s['left'].raw_velocity == 0 == s['right'].raw_velocity
                                else None)(_read_state(gripper)))
@@ -187,7 +178,7 @@ def test_velocity_and_effort_units_along_theta(bus, gripper):
     gripper.hold_present_position()
     gripper.set_torque(True)
     gripper.command(1.0, 0.5, 1.0)  # open slowly: 42 velocity units
-    state = _wait_for(lambda: (lambda s: s if s['right'].raw_velocity else None)(
+    state = wait_until(lambda: (lambda s: s if s['right'].raw_velocity else None)(
         _read_state(gripper)))
     assert state['right'].raw_velocity == 42 and state['left'].raw_velocity == -42
     assert state['right'].velocity == pytest.approx(42 * 0.0239809, rel=1e-5)
@@ -196,7 +187,7 @@ def test_velocity_and_effort_units_along_theta(bus, gripper):
     bus.set_servo(1, obstacle=2100, obstacle_blocks_increasing=False)
     bus.set_servo(2, obstacle=1996, obstacle_blocks_increasing=True)
     gripper.command(0.0, 0.4, 4.0)
-    squeeze = _wait_for(lambda: (lambda s: s if s['right'].raw_current == -148
+    squeeze = wait_until(lambda: (lambda s: s if s['right'].raw_current == -148
                                  and s['left'].raw_current == 148 else None)(
         _read_state(gripper)))
     assert squeeze, 'the fingers never squeezed the obstacle'
@@ -212,14 +203,14 @@ def test_out_of_range_command_is_clipped_to_the_registers_and_nan_refused(bus, g
     gripper.set_torque(True)
     check = gripper.command(3.0, 5.0, 0.0)
     assert check.accepted and check.clipped and len(check.reasons) == 2
-    assert _wait_for(lambda: bus.register_value(1, 'Goal Position') == 2700)
+    assert wait_until(lambda: bus.register_value(1, 'Goal Position') == 2700)
     assert bus.register_value(2, 'Goal Position') == 1396
     assert bus.register_value(1, 'Goal Current') == 371  # Current Limit, not 5 A
     before = bus.count(proto.INSTRUCTION_SYNC_WRITE)
     refused = gripper.command(math.nan, 0.0, 0.0)
     assert not refused.accepted and 'not finite' in refused.reasons[0]
     gripper.command(0.2)  # a valid one afterwards, to know the bus has been flushed
-    assert _wait_for(lambda: bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 1)
+    assert wait_until(lambda: bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 1)
 
 
 def test_hardware_errors_are_read_per_servo(bus, gripper):
@@ -227,7 +218,7 @@ def test_hardware_errors_are_read_per_servo(bus, gripper):
     assert gripper.read_hardware_errors() == {1: 0, 2: 0}
     bus.set_servo(1, temperature=90.0)
     bus.set_servo(2, input_voltage_units=170)
-    errors = _wait_for(lambda: (lambda e: e if e[1] and e[2] else None)(
+    errors = wait_until(lambda: (lambda e: e if e[1] and e[2] else None)(
         gripper.read_hardware_errors()))
     assert errors == {1: ct.HW_ERROR_OVERHEATING, 2: ct.HW_ERROR_INPUT_VOLTAGE}
 
@@ -266,6 +257,6 @@ def test_long_run_every_command_is_exactly_one_packet(bus, gripper):
         assert gripper.command(theta).accepted
         if index % 100 == 0:
             _read_state(gripper)  # interleaved reads, as in the node
-    assert _wait_for(lambda: bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 1000)
+    assert wait_until(lambda: bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 1000)
     assert bus.register_value(1, 'Goal Position') == gripper.config.right.theta_to_raw(thetas[-1])
     assert bus.register_value(2, 'Goal Position') == gripper.config.left.theta_to_raw(thetas[-1])
