@@ -6,24 +6,28 @@ tests: a test module that leaves threads, child processes or rclpy's default con
 running is an error of that module, so no module slows the ones after it, and a module that
 skips at import (no launch stack) skips alone, with its reason.
 
-Usage: ``python tools/run_tests.py [--package NAME ...] [pytest args...]`` from the
-repository root (``make test-python``; ``--package`` repeats, default every package of
-``pytest.ini``'s ``testpaths``). Prints pytest's own output per package, then a line per
-package (tests and wall time), the slowest tests, every skipped test with its reason, and a
-closing ``pytest: N passed, N failed, N skipped`` line. Exits 1 if a test failed or
-errored, a package's pytest ended abnormally, or a test file reported no test at all (a
-renamed or crashed module must not pass silently; with ``-k``/``-m`` selecting, a file may
-rightly report nothing).
+Usage: ``python tools/run_tests.py [--package NAME ...] [--burners N] [pytest args...]``
+from the repository root (``make test-python``; ``--package`` repeats, default every
+package of ``pytest.ini``'s ``testpaths``; ``--burners N`` runs N CPU-bound processes at
+normal priority beside the tests, as a motion planner loads a robot's computer: the
+live-graph tests must pass so, docs/testing.md). Prints pytest's own output per package,
+then a line per package (tests and wall time), the slowest tests, every skipped test with
+its reason, and a closing ``pytest: N passed, N failed, N skipped`` line. Exits 1 if a test
+failed or errored, a package's pytest ended abnormally, or a test file reported no test at
+all (a renamed or crashed module must not pass silently; with ``-k``/``-m`` selecting, a
+file may rightly report nothing).
 """
 from __future__ import annotations
 
 import argparse
 import configparser
+import contextlib
 import subprocess
 import sys
 import tempfile
 import time
 import xml.etree.ElementTree as ElementTree
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -153,10 +157,27 @@ def summary(per_package: dict[str, tuple[list[TestResult], float]],
     return lines
 
 
+@contextlib.contextmanager
+def cpu_burners(count: int) -> Iterator[None]:
+    """``count`` processes that each keep one core busy (a Python busy loop at normal
+    priority) until the block ends."""
+    burners = [subprocess.Popen([sys.executable, '-c', 'while True: pass'])
+               for _ in range(count)]
+    if burners:
+        print(f'[tests] {count} CPU burner(s) running beside the tests', flush=True)
+    try:
+        yield
+    finally:
+        for burner in burners:
+            burner.kill()
+            burner.wait()
+
+
 def main(arguments: list[str], root: Path = ROOT) -> int:
     """Run the packages' tests (see the module docstring); 0 if all is well, else 1."""
     parser = argparse.ArgumentParser(add_help=False)
     parser.add_argument('--package', action='append', default=[])
+    parser.add_argument('--burners', type=int, default=0)
     options, pytest_args = parser.parse_known_args(arguments)
     grouped = packages(root)
     unknown = sorted(set(options.package) - set(grouped))
@@ -168,7 +189,7 @@ def main(arguments: list[str], root: Path = ROOT) -> int:
     started = time.monotonic()
     per_package: dict[str, tuple[list[TestResult], float]] = {}
     problems: list[str] = []
-    with tempfile.TemporaryDirectory() as folder:
+    with tempfile.TemporaryDirectory() as folder, cpu_burners(options.burners):
         for name, folders in chosen.items():
             results, found, seconds = run_package(name, folders, pytest_args,
                                                   Path(folder) / f'{name}.xml', root)

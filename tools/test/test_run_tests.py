@@ -118,3 +118,21 @@ def test_the_summary_lists_the_slowest_tests_first(tmp_path, capfd):
     heading = lines.index('[tests] slowest 15 tests (setup + call + teardown):')
     assert lines[heading + 1].endswith('alpha/test/test_slow.py::test_slow')
     assert float(lines[heading + 1].split()[1]) >= 0.3
+
+
+def test_burners_load_the_machine_while_the_tests_run_and_end_with_them(tmp_path, capfd):
+    # a test that sees a burner started by its own runner (a sibling: same parent process)
+    sees_burner = ('import os\n'
+                   'from pathlib import Path\n'
+                   'def test_sees_a_burner():\n'
+                   '    siblings = [p.parent for p in Path("/proc").glob("[0-9]*/stat")\n'
+                   '                if p.exists() and p.read_text().rsplit(")", 1)[1].split()[1]\n'
+                   '                == str(os.getppid())]\n'
+                   '    assert any(b"while True: pass" in (s / "cmdline").read_bytes()\n'
+                   '               for s in siblings if (s / "cmdline").exists())\n')
+    root = workspace(tmp_path, {'alpha': {'test_burner.py': sees_burner}})
+    code, output = run(root, capfd, '--burners', '1')
+    assert code == 0, output
+    assert '1 CPU burner(s) running beside the tests' in output
+    code, output = run(root, capfd)
+    assert code == 1  # no burner without the option, and none left by the first run
