@@ -63,10 +63,19 @@ OPTIONAL: dict[str, str] = {
                 '(which depends on tf2_msgs)',
 }
 
+#: Modules of a package's own folder that only tests import (the test helpers shared across
+#: packages, docs/testing.md): their imports are test imports, declared as <test_depend>.
+TEST_SUPPORT: dict[str, str] = {
+    'forte_ros/forte_ros/testing.py': 'helpers for the tests of every package',
+    'forte_ros/forte_ros/pytest_plugin.py': 'the pytest hooks every conftest loads',
+}
+
 #: (package, key) declared as <depend>/<exec_depend> although no runtime code imports it.
 RUNTIME_ONLY: dict[tuple[str, str], str] = {
     ('forte_msgs', 'rosidl_default_runtime'): 'the generated interfaces load it',
     ('forte_msgs', 'std_msgs'): 'the interface definitions use std_msgs/Header',
+    ('forte_ros', 'lifecycle_msgs'): 'forte_ros.lifecycle drives lifecycle nodes through '
+                                     'rclpy.lifecycle, which loads it',
     ('forte_driver', 'lifecycle_msgs'): 'services and transition events of its lifecycle '
                                         'nodes, used through rclpy.lifecycle',
     ('forte_sim', 'lifecycle_msgs'): 'services and transition events of the sim lifecycle '
@@ -127,11 +136,15 @@ def third_party_imports(package: str) -> dict[str, dict[str, set[str]]]:
     -------
     dict
         ``{'runtime': {module: files}, 'test': {module: files}}``; runtime = module folder(s)
-        and ``launch/``, test = ``test/`` (modules runtime code imports are left out of it).
+        and ``launch/``, test = ``test/`` and :data:`TEST_SUPPORT` (modules runtime code
+        imports are left out of it).
     """
     folder = ROOT / package
-    scopes = {'runtime': [*(folder / package).rglob('*.py'), *(folder / 'launch').rglob('*.py')],
-              'test': list((folder / 'test').rglob('*.py'))}
+    support = {ROOT / name for name in TEST_SUPPORT}
+    library = [*(folder / package).rglob('*.py'), *(folder / 'launch').rglob('*.py')]
+    scopes = {'runtime': [path for path in library if path not in support],
+              'test': [*(folder / 'test').rglob('*.py'),
+                       *(path for path in library if path in support)]}
     # test helpers imported by their own name (perception_signals); a test subfolder's name
     # is not importable (prepend mode puts the subfolder itself on sys.path), and
     # forte_driver/test/serial must not hide pyserial's ``serial``

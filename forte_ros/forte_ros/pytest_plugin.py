@@ -38,6 +38,10 @@ GRACE = 5.0
 #: launch's asyncio default executor and pytest-timeout's watchdog come and go with the
 #: event loop / the test; rclpy's signal handler thread is one per process.
 PROCESS_WIDE_THREADS = ('asyncio_', 'ThreadPoolExecutor-', 'pytest_timeout')
+#: Child processes that live as long as the interpreter by design, matched in their command
+#: line: multiprocessing's resource tracker and forkserver, started by the first process pool
+#: and reused by every later one (ending them would break those).
+PROCESS_WIDE_CHILDREN = ('multiprocessing.resource_tracker', 'multiprocessing.forkserver')
 
 
 @pytest.hookimpl(wrapper=True)
@@ -51,7 +55,8 @@ def pytest_pycollect_makemodule(module_path: Path, parent: pytest.Collector):
 
 
 def child_processes() -> set[int]:
-    """Process ids of this process's live children (Linux ``/proc``; empty elsewhere)."""
+    """Process ids of this process's live children but :data:`PROCESS_WIDE_CHILDREN`
+    (Linux ``/proc``; empty elsewhere)."""
     children = set()
     own = os.getpid()
     for entry in Path('/proc').glob('[0-9]*/stat'):
@@ -61,7 +66,9 @@ def child_processes() -> set[int]:
             continue  # ended meanwhile
         # fields after the command name: state, ppid, ...; a zombie is already ended
         if int(fields[1]) == own and fields[0] != 'Z':
-            children.add(int(entry.parent.name))
+            pid = int(entry.parent.name)
+            if not any(name in _command_line(pid) for name in PROCESS_WIDE_CHILDREN):
+                children.add(pid)
     return children
 
 
