@@ -27,6 +27,15 @@ LEAKS_A_THREAD = ('import threading\n'
                   'def test_starts_a_thread():\n'
                   '    threading.Thread(target=threading.Event().wait, name="forgotten",\n'
                   '                     daemon=True).start()\n')
+#: a test that starts a child process and never stops it
+LEAKS_A_PROCESS = ('import subprocess, sys\n'
+                   'def test_starts_a_process():\n'
+                   '    subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])\n')
+#: a process pool: its resource tracker outlives it by design (not a leak)
+USES_A_POOL = ('from concurrent.futures import ProcessPoolExecutor\n'
+               'def test_uses_a_pool():\n'
+               '    with ProcessPoolExecutor(1) as pool:\n'
+               '        assert pool.submit(abs, -2).result() == 2\n')
 #: a test whose process dies (as a segfault in a C extension would end it)
 CRASHES = 'import os\ndef test_crash():\n    os._exit(134)\n'
 
@@ -80,12 +89,17 @@ def test_a_module_that_skips_at_import_skips_alone_with_its_reason(tmp_path, cap
     assert 'SKIPPED alpha/test/test_a_launch.py' in output and 'needs the launch kit' in output
 
 
-def test_a_module_that_leaves_a_thread_running_fails(tmp_path, capfd):
-    root = workspace(tmp_path, {'alpha': {'test_leak.py': LEAKS_A_THREAD,
-                                          'test_later.py': PASSING}})
+@pytest.mark.parametrize(('text', 'found'), [(LEAKS_A_THREAD, "thread 'forgotten'"),
+                                             (LEAKS_A_PROCESS, 'child process'),
+                                             (USES_A_POOL, None)])
+def test_a_module_that_leaves_something_running_fails(tmp_path, capfd, text, found):
+    root = workspace(tmp_path, {'alpha': {'test_leak.py': text, 'test_later.py': PASSING}})
     code, output = run(root, capfd)
+    if found is None:
+        assert code == 0, output
+        return
     assert code == 1
-    assert "thread 'forgotten'" in output
+    assert found in output
     assert 'FAILED alpha/test/test_leak.py' in output
 
 
