@@ -6,9 +6,12 @@ tests: a test module that leaves threads, child processes or rclpy's default con
 running is an error of that module, so no module slows the ones after it, and a module that
 skips at import (no launch stack) skips alone, with its reason.
 
-Usage: ``python tools/run_tests.py [--package NAME ...] [--burners N] [pytest args...]``
-from the repository root (``make test-python``; ``--package`` repeats, default every
-package of ``pytest.ini``'s ``testpaths``; ``--burners N`` runs N CPU-bound processes at
+Usage: ``python tools/run_tests.py [--package NAME ...] [--jobs N] [--burners N]
+[pytest args...]`` from the repository root (``make test-python``). ``--package`` repeats
+(default: every package of ``pytest.ini``'s ``testpaths``); ``--jobs N`` runs N packages at a
+time (default 2, or 1 on a one-core machine): :data:`FIRST` at the runner's priority, the
+others beside it at niceness :data:`BESIDE_NICENESS`, each one's output printed whole when
+it ends (with ``--jobs 1`` straight through); ``--burners N`` runs N CPU-bound processes at
 normal priority beside the tests, as a motion planner loads a robot's computer: the
 live-graph tests must pass so, docs/testing.md). Prints pytest's own output per package,
 then a line per package (tests and wall time), the slowest tests, every skipped test with
@@ -22,12 +25,15 @@ from __future__ import annotations
 import argparse
 import configparser
 import contextlib
+import os
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import xml.etree.ElementTree as ElementTree
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -37,6 +43,14 @@ ROOT = Path(__file__).resolve().parents[1]
 COMPLETED = (0, 1, 5)
 #: How many of the slowest tests the summary lists.
 SLOWEST = 15
+#: Packages started first, in this order, then the others in ``testpaths`` order: the one
+#: whose live graphs take longest (12 of the run's minutes, mostly real-time scenes that
+#: leave a core idle) runs at the runner's priority while the others run beside it.
+FIRST = ('forte_bringup',)
+#: Niceness of the packages run beside the first one: they fill the idle core without
+#: taking it from the first one's real-time graphs.
+BESIDE_NICENESS = 10
+PRINTING = threading.Lock()
 
 
 @dataclass(frozen=True)
@@ -98,9 +112,25 @@ def selects_tests(pytest_args: list[str]) -> bool:
     return any(arg in ('-k', '-m') or arg.startswith(('-k=', '-m=')) for arg in pytest_args)
 
 
-def run_package(name: str, folders: list[Path], pytest_args: list[str], report: Path,
-                root: Path) -> tuple[list[TestResult], list[str], float]:
+def run_package(name: str, folders: list[Path], pytest_args: list[str], work: Path,
+                root: Path, niceness: int = 0,
+                streamed: bool = True) -> tuple[list[TestResult], list[str], float]:
     """Run one package's tests in one pytest process.
+
+    Parameters
+    ----------
+    name, folders : str, list of Path
+        The package and its test folders.
+    pytest_args : list of str
+        Passed on to pytest.
+    work : Path
+        A folder of this run: the package's junit report, its pytest base temporary folder
+        (one per package, so that packages run side by side never share one) and, unless
+        ``streamed``, its output.
+    niceness : int
+        Added to the process's nice value (0: the runner's priority).
+    streamed : bool
+        Output straight to this process's stdout; otherwise printed whole when it ends.
 
     Returns
     -------
@@ -109,12 +139,20 @@ def run_package(name: str, folders: list[Path], pytest_args: list[str], report: 
         failed test (an abnormal exit, a file that reported nothing), its wall time [s].
     """
     begin = time.monotonic()
-    print(f'[tests] {name}: pytest {" ".join(str(f.relative_to(root)) for f in folders)}',
-          flush=True)
-    completed = subprocess.run(
-        [sys.executable, '-m', 'pytest', *(str(f.relative_to(root)) for f in folders), '-q',
-         '-p', 'no:cacheprovider', '-o', 'junit_family=xunit1', f'--junitxml={report}',
-         *pytest_args], cwd=root)
+    report = work / f'{name}.xml'
+    print(f'[tests] {name}: pytest {" ".join(str(f.relative_to(root)) for f in folders)}'
+          + (f' (nice {niceness})' if niceness else ''), flush=True)
+    with open(work / f'{name}.log', 'w+') as log:
+        completed = subprocess.run(
+            [sys.executable, '-m', 'pytest', *(str(f.relative_to(root)) for f in folders),
+             '-q', '-p', 'no:cacheprovider', '-o', 'junit_family=xunit1',
+             f'--junitxml={report}', f'--basetemp={work / (name + "-tmp")}', *pytest_args],
+            cwd=root, stdout=None if streamed else log, stderr=None if streamed else log,
+            preexec_fn=(lambda: os.nice(niceness)) if niceness else None)
+        if not streamed:
+            log.seek(0)
+            with PRINTING:
+                print(f'[tests] ----- {name} -----\n{log.read()}', end='', flush=True)
     seconds = time.monotonic() - begin
     results = read_junit(report)
     problems = []
@@ -178,24 +216,32 @@ def main(arguments: list[str], root: Path = ROOT) -> int:
     parser = argparse.ArgumentParser(add_help=False)
     parser.add_argument('--package', action='append', default=[])
     parser.add_argument('--burners', type=int, default=0)
+    parser.add_argument('--jobs', type=int, default=min(2, os.cpu_count() or 1))
     options, pytest_args = parser.parse_known_args(arguments)
     grouped = packages(root)
     unknown = sorted(set(options.package) - set(grouped))
     if unknown:
         print(f'[tests] unknown package(s) {unknown}; the packages are {sorted(grouped)}')
         return 1
-    chosen = {name: folders for name, folders in grouped.items()
-              if not options.package or name in options.package}
+    order = [name for name in FIRST if name in grouped] + [
+        name for name in grouped if name not in FIRST]
+    chosen = [name for name in order if not options.package or name in options.package]
+    jobs = max(1, min(options.jobs, len(chosen)))
     started = time.monotonic()
     per_package: dict[str, tuple[list[TestResult], float]] = {}
     problems: list[str] = []
-    with tempfile.TemporaryDirectory() as folder, cpu_burners(options.burners):
-        for name, folders in chosen.items():
-            results, found, seconds = run_package(name, folders, pytest_args,
-                                                  Path(folder) / f'{name}.xml', root)
+    with tempfile.TemporaryDirectory() as folder, cpu_burners(options.burners), \
+            ThreadPoolExecutor(jobs) as pool:
+        futures = {name: pool.submit(
+            run_package, name, grouped[name], pytest_args, Path(folder), root,
+            niceness=BESIDE_NICENESS if index and jobs > 1 else 0, streamed=jobs == 1)
+            for index, name in enumerate(chosen)}
+        for name, future in futures.items():
+            results, found, seconds = future.result()
             per_package[name] = (results, seconds)
             problems += found
-    print(f'[tests] {len(chosen)} packages in {time.monotonic() - started:.0f} s')
+    print(f'[tests] {len(chosen)} packages in {time.monotonic() - started:.0f} s '
+          f'({jobs} at a time)')
     print('\n'.join(summary(per_package, problems)), flush=True)
     failed = any(r.outcome == 'failed' for results, _ in per_package.values() for r in results)
     return 1 if failed or problems else 0

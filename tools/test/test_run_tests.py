@@ -4,6 +4,7 @@ reason) or leaves something running (forte_ros.pytest_plugin, loaded as every FO
 conftest loads it)."""
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -150,3 +151,33 @@ def test_burners_load_the_machine_while_the_tests_run_and_end_with_them(tmp_path
     assert '1 CPU burner(s) running beside the tests' in output
     code, output = run(root, capfd)
     assert code == 1  # no burner without the option, and none left by the first run
+
+
+def rendezvous(folder: Path, mine: str, theirs: str, niceness: int) -> str:
+    """A test that leaves a marker file and waits (at most 30 s) for the other package's:
+    it passes only if both run at the same time; it also checks its own niceness."""
+    return ('import os, time\n'
+            'from pathlib import Path\n'
+            'def test_meets_the_other_package(tmp_path_factory):\n'
+            f'    folder = Path({str(folder)!r})\n'
+            f'    (folder / {mine!r}).touch()\n'
+            '    deadline = time.monotonic() + 30.0\n'
+            f'    while not (folder / {theirs!r}).exists() and time.monotonic() < deadline:\n'
+            '        time.sleep(0.05)\n'
+            f'    assert (folder / {theirs!r}).exists()\n'
+            f'    assert os.nice(0) == {niceness}\n')
+
+
+def test_two_packages_run_side_by_side_the_second_at_lower_priority(tmp_path, capfd):
+    meeting = tmp_path / 'meeting'
+    meeting.mkdir()
+    own = os.nice(0)
+    root = workspace(tmp_path, {
+        'alpha': {'test_meet.py': rendezvous(meeting, 'alpha', 'beta', own)},
+        # Linux caps niceness at 19 (this test may itself run beside another package)
+        'beta': {'test_meet.py': rendezvous(meeting, 'beta', 'alpha',
+                                            min(19, own + run_tests.BESIDE_NICENESS))}})
+    code, output = run(root, capfd, '--jobs', '2')
+    assert code == 0, output
+    assert '2 packages in' in output and '(2 at a time)' in output
+    assert '[tests] ----- alpha -----' in output and '[tests] ----- beta -----' in output
