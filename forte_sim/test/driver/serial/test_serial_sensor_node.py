@@ -158,19 +158,27 @@ def test_diagnostics_report_rate_drops_and_corruption(link):
           Harness(link, diagnostics_period=0.5) as harness):
         harness.activate()
 
-        def values():
-            for array in reversed(harness.diagnostics):
+        def active() -> list:
+            """(status, key -> value) of the active reports from the first with frames on
+            (a later window without frames counts), oldest first."""
+            found = []
+            for array in list(harness.diagnostics):
                 status = array.status[0]
                 table = {kv.key: kv.value for kv in status.values}
-                if table.get('state') == 'active' and float(table['achieved_rate_hz']) > 0:
-                    return status, table
-            return None, {}
+                if table.get('state') == 'active' and (
+                        found or float(table['achieved_rate_hz']) > 0):
+                    found.append((status, table))
+            return found
 
-        assert harness.wait(lambda: len(harness.diagnostics) > 4
-                            and values()[0] is not None, 20.0)
-        status, table = values()
+        assert harness.wait(lambda: len(active()) >= 4, 20.0)
+        reports = active()
+        status, table = reports[-1]
         assert status.name.endswith('tactile sensor')
-        assert 500.0 < float(table['achieved_rate_hz']) < 2100.0
+        # the board's 2 kHz, less the injected gaps, over the reports' 0.5 s windows: one
+        # window alone can exceed it (an emulator that stalled on a loaded machine delivers
+        # the frames it owed in the next window: 2376 Hz seen once), their mean cannot
+        rates = [float(table['achieved_rate_hz']) for _, table in reports]
+        assert 500.0 < sum(rates) / len(rates) < 2100.0, rates
         assert int(table['dropped_frames']) > 0
         assert int(table['corrupt_frames']) > 0
         assert float(table['latency_mean_ms']) >= 0.0
