@@ -23,6 +23,7 @@ file may rightly report nothing).
 from __future__ import annotations
 
 import argparse
+import ast
 import configparser
 import contextlib
 import os
@@ -82,6 +83,16 @@ def test_files(folders: list[Path]) -> list[Path]:
     return sorted(path for folder in folders for path in folder.rglob('test_*.py'))
 
 
+def skip_reason(skipped: ElementTree.Element) -> str:
+    """The reason of a junit ``<skipped>`` element: a module skipped at import is reported
+    as ``collection skipped`` with ``(path, line, 'Skipped: reason')`` as its text."""
+    message, text = skipped.get('message', ''), skipped.text or ''
+    if message == 'collection skipped':
+        with contextlib.suppress(ValueError, SyntaxError, IndexError, TypeError):
+            return 'whole module: ' + ast.literal_eval(text)[2].removeprefix('Skipped: ')
+    return message
+
+
 def read_junit(report: Path) -> list[TestResult]:
     """The test cases of a junit XML report written with ``junit_family=xunit1`` (which
     records each case's file); empty when pytest wrote none."""
@@ -94,7 +105,7 @@ def read_junit(report: Path) -> list[TestResult]:
             if child.tag in ('failure', 'error'):
                 outcome = 'failed'
             elif child.tag == 'skipped' and outcome == 'passed':
-                outcome, reason = 'skipped', child.get('message', '') + ' ' + (child.text or '')
+                outcome, reason = 'skipped', skip_reason(child)
         file = case.get('file', '')
         # classname is the module's dotted path, with the test's class last if it has one
         owner = case.get('classname', '').rsplit('.', 1)[-1]
