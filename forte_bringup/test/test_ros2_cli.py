@@ -61,6 +61,13 @@ LIFECYCLE_SPINS = ('1', '3', '8')
 GRIPPER_GOAL = 0.8
 
 
+def run_ros2(*arguments: str, timeout: float = 120.0,
+             cwd: Path | None = None) -> subprocess.CompletedProcess:
+    """Run ``ros2 <arguments>`` to completion; its output is stdout and stderr together."""
+    return subprocess.run(['ros2', *arguments], cwd=cwd, stdout=subprocess.PIPE,
+                          stderr=subprocess.STDOUT, text=True, timeout=timeout)
+
+
 def ros2(*arguments: str, timeout: float = 120.0, cwd: Path | None = None) -> str:
     """Run ``ros2 <arguments>`` to completion; returns its output (stdout + stderr).
 
@@ -69,8 +76,7 @@ def ros2(*arguments: str, timeout: float = 120.0, cwd: Path | None = None) -> st
     AssertionError
         If it exits with a non-zero code (the output is in the message).
     """
-    result = subprocess.run(['ros2', *arguments], cwd=cwd, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, timeout=timeout)
+    result = run_ros2(*arguments, timeout=timeout, cwd=cwd)
     assert result.returncode == 0, (arguments, result.returncode, result.stdout[-3000:])
     return result.stdout
 
@@ -85,9 +91,7 @@ def lifecycle(*arguments: str) -> str:
         If it fails otherwise, or finds no node with the longest discovery time.
     """
     for spin in LIFECYCLE_SPINS:
-        result = subprocess.run(['ros2', 'lifecycle', *arguments, '--no-daemon', '--spin-time',
-                                 spin], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                text=True, timeout=120.0)
+        result = run_ros2('lifecycle', *arguments, '--no-daemon', '--spin-time', spin)
         if result.returncode == 0 or 'Node not found' not in result.stdout:
             break
     assert result.returncode == 0, (arguments, spin, result.returncode, result.stdout[-3000:])
