@@ -178,6 +178,12 @@ def run_package(name: str, folders: list[Path], pytest_args: list[str], work: Pa
     return results, problems, seconds
 
 
+def outcome_counts(results: list[TestResult]) -> dict[str, int]:
+    """How many of ``results`` passed, failed and were skipped."""
+    return {outcome: sum(result.outcome == outcome for result in results)
+            for outcome in ('passed', 'failed', 'skipped')}
+
+
 def summary(per_package: dict[str, tuple[list[TestResult], float]],
             problems: list[str]) -> list[str]:
     """The closing lines: per package, the slowest tests, the skipped ones, the problems and
@@ -185,8 +191,7 @@ def summary(per_package: dict[str, tuple[list[TestResult], float]],
     lines = []
     every = [result for results, _ in per_package.values() for result in results]
     for name, (results, seconds) in per_package.items():
-        counts = {outcome: sum(r.outcome == outcome for r in results)
-                  for outcome in ('passed', 'failed', 'skipped')}
+        counts = outcome_counts(results)
         lines.append(f'[tests] {name}: {counts["passed"]} passed, {counts["failed"]} failed, '
                      f'{counts["skipped"]} skipped in {seconds:.0f} s')
     lines.append(f'[tests] slowest {SLOWEST} tests (setup + call + teardown):')
@@ -199,8 +204,7 @@ def summary(per_package: dict[str, tuple[list[TestResult], float]],
         if result.outcome == 'failed':
             lines.append(f'[tests] FAILED {result.file}::{result.name}')
     lines += [f'[tests] FAILED {problem}' for problem in problems]
-    totals = {outcome: sum(r.outcome == outcome for r in every)
-              for outcome in ('passed', 'failed', 'skipped')}
+    totals = outcome_counts(every)
     lines.append(f'pytest: {totals["passed"]} passed, {totals["failed"] + len(problems)} '
                  f'failed, {totals["skipped"]} skipped')
     return lines
