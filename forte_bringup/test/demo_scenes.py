@@ -18,9 +18,10 @@ until 2026-11-26, needs all 20 tightenings that max_tightening allows at batch s
 30 (so over DDS it ended in three different ways in CI runs, once NOT_CARRIED while the can
 hung from the fingers); seed 7 needs 12-15 (batch sizes 10-40) and is the demo's now (seed
 12 needs 12-14, but NO_SLIP's lift check passes its resting can: LIFTED, RESTING).
-Of the glass bottle's seeds 0-8, 7 were single-outcome (all LIFTED); seed 0 still is, for
-all three controllers (6 tightenings at every batch size), as are the raspberry's seed 0
-and the soda can's seed 7 for NO_SLIP and ON_OFF (batch sizes 10, 20, 30, 40).
+Of the glass bottle's seeds 0-8, 7 were single-outcome (all LIFTED); seed 0 is for NO_SLIP
+and ON_OFF, and for FORTE at batch sizes 10-30 (at 40 it falls in the set-down probe, see
+GRAPH_RACES), as are the raspberry's seed 0 and the soda can's seed 7 for NO_SLIP and
+ON_OFF (batch sizes 10, 20, 30, 40).
 """
 from __future__ import annotations
 
@@ -58,10 +59,14 @@ HONEST_MISSES = (('NOT_CARRIED', 'RESTING'), ('DROPPED', 'RESTING'))
 #: evidence: over DDS, message timing changes how many fit before the lift ends (with seed
 #: 13, which needs up to all 20, CI runs ended NOT_CARRIED, RESTING once and DROPPED,
 #: RESTING once).
-#: The glass bottle of seed 0 is single-outcome in the closed loop (batches of 10-40
-#: samples), but over DDS FORTE's tightenings came too late for it in 1 of 3 quiet CI runs
-#: of 2026-11-26 (the bottle slid back onto the table: NOT_CARRIED, RESTING, the set-down
-#: probe saw the table take the load).
+#: The glass bottle of seed 0 is carried in the closed loop with batches of 10-30 samples;
+#: with 40 it falls 25 mm onto the table as the set-down probe begins to lower (NOT_CARRIED,
+#: RESTING; the controller claimed LIFTED until the probe was voided by the slip it caused,
+#: 2026-11-27), and over DDS FORTE's tightenings came too late for it in 1 of 3 quiet CI runs
+#: of 2026-11-26 (NOT_CARRIED, RESTING). In a CI run of 2026-11-27 the soda can slid onto
+#: the table in the hold and FORTE claimed LIFTED (a probe judged against the grip from
+#: before the slide, docs/control.md): a controller that disagrees with the truth, which
+#: this list never accepts.
 #: Never a race: a crushed or broken object, or a controller that disagrees with the truth.
 GRAPH_RACES = {
     ('soda_can', 'FORTE'): HONEST_MISSES,

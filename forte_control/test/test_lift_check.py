@@ -22,6 +22,7 @@ from forte_control.state_machine.lift_check import (
     finger_levels,
     shear_index,
 )
+from forte_control.state_machine.phases import MAX_PROBES
 
 DT = 0.01
 EQUAL = (0.10, 0.06, 0.03, 0.10, 0.06, 0.03)       # both fingers pressed alike
@@ -255,12 +256,13 @@ class World:
         self.force = 0.0
         self.effort = 0.05
         self.contact = (False, False)
+        self.slip = False
 
     def inputs(self) -> state_machine.ControlInputs:
         return state_machine.ControlInputs(
             perception=state_machine.PerceptionInput(
                 stamp=self.now, force=self.force, force_valid=True, contact=self.contact,
-                slip_active=True, filtered=self.filtered),
+                slip=self.slip, slip_active=True, filtered=self.filtered),
             joint=state_machine.JointInput(stamp=self.now, theta=self.theta,
                                            effort=self.effort))
 
@@ -370,6 +372,99 @@ def test_machine_probes_by_setting_down_and_judges_the_shear_change(table_holds)
         assert out.outcome == Outcome.NOT_CARRIED and 'table took load' in out.message
     else:
         assert out.outcome == Outcome.LIFTED and 'when set down' in out.message
+
+
+#: EQUAL with the table taking load: distal 0.003 lower, root 0.002 higher per finger
+#: (shear index 0.010 lower)
+ON_TABLE = (0.097, 0.06, 0.032, 0.097, 0.06, 0.032)
+
+
+def probe_run(world: World, controller, during_hold, during_lowering, limit: float = 30.0):
+    """Run a grasp with ``world``'s contact, force and pattern; ``during_hold(world, t)`` is
+    called at each step of HOLDING with the time since it began [s] and
+    ``during_lowering(world, k)`` at each step the arm goes down, k counting from 0 at each
+    descent. Returns the last outputs and the arm's direction changes ('+', '-')."""
+    world.start(controller)
+    hold_start = None
+    descent_steps = 0
+    moves: list[str] = []
+    end = world.now + limit
+    while world.now < end:
+        world.now += DT
+        out = world.machine.step(world.inputs(), world.now)
+        world.slip = False
+        if out.servo is not None:
+            world.theta = max(out.servo.position, world.block)
+        direction = '+' if out.arm_velocity > 0 else '-' if out.arm_velocity < 0 else ''
+        if direction and (not moves or moves[-1] != direction):
+            moves.append(direction)
+            descent_steps = 0
+        if out.state == GraspState.HOLDING:
+            hold_start = world.now if hold_start is None else hold_start
+            if direction == '-':
+                during_lowering(world, descent_steps)
+                descent_steps += 1
+            else:
+                during_hold(world, world.now - hold_start)
+        if out.state == GraspState.DONE:
+            return out, moves
+    raise AssertionError('grasp did not finish')
+
+
+def test_the_probe_waits_for_a_grip_that_slid_onto_the_table_in_the_hold():
+    """Closed loop, soda can seed 16: 0.9 s into the hold the can slid 18 mm down onto the
+    table (one slip flag), FORTE tightened (every channel x 1.3), the probe lowered, the table
+    took load. Judged against the hanging grip before the slide, the index rose (+0.06 there,
+    LIFTED claimed for a can on the table); the probe waits for the quiet grip instead."""
+    world = World()
+    world.contact, world.force, world.filtered = (True, True), 0.4, EQUAL
+
+    def slide_onto_table(world: World, held: float) -> None:
+        if 0.9 <= held < 0.9 + DT / 2:
+            world.slip = True
+            world.filtered = tuple(1.3 * value for value in EQUAL)
+
+    def lower(world: World, _step: int) -> None:
+        world.filtered = tuple(1.3 * value for value in ON_TABLE)
+
+    out, moves = probe_run(world, state_machine.Controller.FORTE, slide_onto_table, lower)
+    assert out.slip_events == 1
+    assert out.outcome == Outcome.NOT_CARRIED and 'table took load' in out.message
+    assert '-0.0130' in out.message  # 1.3 x (0.010 per finger): the grip as it now is
+
+
+def test_a_slip_during_the_probe_sends_the_arm_back_up_to_probe_again():
+    """A carried object slips once as the probe lowers (FORTE tightens: x 1.1). The probe's
+    reference is void; up again, a quiet probe finds the shear pattern unchanged."""
+    world = World()
+    world.contact, world.force, world.filtered = (True, True), 0.4, EQUAL
+    descents = []
+
+    def slip_once(world: World, step: int) -> None:
+        if step == 0:
+            descents.append(world.now)
+        if len(descents) == 1 and step == 5:
+            world.slip = True
+            world.filtered = tuple(1.1 * value for value in EQUAL)
+
+    out, moves = probe_run(world, state_machine.Controller.FORTE, lambda *_: None, slip_once)
+    assert moves == ['+', '-', '+', '-']  # lift, probe, back up, probe again
+    assert len(descents) == 2 and out.slip_events == 1
+    assert out.outcome == Outcome.LIFTED and '+0.0000 when set down' in out.message
+    assert out.lift_height == pytest.approx(0.03, abs=2e-5)
+
+
+def test_a_grip_that_slips_in_every_probe_is_not_claimed():
+    world = World()
+    world.contact, world.force, world.filtered = (True, True), 0.4, EQUAL
+
+    def slip(world: World, step: int) -> None:
+        world.slip = step == 3
+
+    out, moves = probe_run(world, state_machine.Controller.NO_SLIP, lambda *_: None, slip,
+                           limit=60.0)
+    assert moves.count('-') == MAX_PROBES
+    assert out.outcome == Outcome.NOT_CARRIED and 'never settled' in out.message
 
 
 def test_no_probe_without_room_under_the_lift_cap():

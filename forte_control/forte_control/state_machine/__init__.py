@@ -12,8 +12,8 @@ The procedure follows the results section of the FORTE paper:
    (outside a refractory period) tightens the servo by ``slip_increment``; the lift ends
    with success when the commanded lift height reaches ``lift_distance``.
 4. HOLDING: the arm stops, the grip is held (and still tightened on slip) for
-   ``hold_duration``; then DONE with outcome LIFTED, or RELEASING (gripper opens) when the
-   goal asked for it.
+   ``hold_duration`` and until the grip is quiet, then the set-down probe; then DONE with
+   outcome LIFTED, or RELEASING (gripper opens) when the goal asked for it.
 
 Drops are detected from the sensors during LIFTING and HOLDING (see :class:`DropDetector`).
 The commanded lift proves nothing about the object: at the end of the hold the evidence of

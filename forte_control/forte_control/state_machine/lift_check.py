@@ -10,12 +10,21 @@ what they were measured on: docs/control.md, "Lift verification"):
    on it horizontally, so they are equal; on the table, its friction can hold the object
    against one finger. Rule: the two fingers' levels agree (necessary, not sufficient).
 2. **A carried object stops slipping.** A slip flag in the last ``quiet_time`` of LIFTING means
-   the fingers still move along the object. Flags while HOLDING do not count: with the arm
-   still, only gravity can make the object slip, i.e. it hangs from the fingers.
+   the fingers still move along the object. Flags while HOLDING do not count against the
+   verdict (with the arm still, only gravity can make the object slip, i.e. it hangs from the
+   fingers), but they delay the probe of rule 3: gravity can also slide a hanging object all
+   the way down onto the table, so the probe waits until the grip is quiet
+   (:meth:`LiftMonitor.hold_quiet`).
 3. **A carried object goes down with the fingers; a resting one unloads them.** The set-down
    probe lifts ``probe_distance`` more, holds and lowers back; the shear index (sum over fingers
    of distal - root) must not fall by more than ``probe_unload``. Only a fall means the table
-   took load: a rise is more grip (a slip tightening during the probe) or more load.
+   took load: a rise is more grip (a slip tightening during the probe) or more load. The
+   reference is the grip's state after the last slip flag and tightening of the hold: an
+   object that slid onto the table in the hold and was tightened on there read a *rise* of
+   +0.06 against a reference taken while it still hung (closed loop, soda can seed 16). A
+   slip flag or a tightening during the probe voids it (the glass bottle of seed 0 fell 25 mm
+   onto the table as the probe began to lower, closed loop with 40-sample updates): the arm
+   goes back up and the probe starts again on the quiet grip, at most ``phases.MAX_PROBES`` times.
 
 Rules 1 and 3 compare levels, so they are measured from the open gripper: the finger levels
 of the first ``balance_window`` of the grasp (:class:`OpenGripperLevels`) are the zero of the
@@ -214,7 +223,9 @@ class LiftMonitor:
         # (stamp, left level, right level, shear index)
         self._levels: deque[tuple[float, float, float, float]] = deque()
         self._probe_reference: float | None = None  # shear index before the probe
+        self._probe_start = math.inf      # stamp at which the probe began [s]
         self._last_flag = -math.inf       # stamp of the last slip flag while lifting [s]
+        self._last_hold_flag = -math.inf  # stamp of the last slip flag while holding [s]
         self._hold_start: float | None = None
         self._wrench_start: float | None = None
         self._wrench: WrenchInput | None = None
@@ -254,6 +265,8 @@ class LiftMonitor:
             self._hold_start = stamp
         if slip_flag and not holding:
             self._last_flag = max(self._last_flag, stamp)
+        elif slip_flag:
+            self._last_hold_flag = max(self._last_hold_flag, stamp)
         now = stamp if now is None else now
         self._now = now
         if wrench is not None and math.isfinite(wrench.force_z) \
@@ -267,9 +280,18 @@ class LiftMonitor:
                   if item[0] >= self._levels[-1][0] - self.params.probe_window]
         return sum(recent) / len(recent) if recent else None
 
+    def hold_quiet(self, quiet: float) -> bool:
+        """True when no slip flag came in the last ``quiet`` seconds of the hold [s]."""
+        return not self._levels or self._levels[-1][0] - self._last_hold_flag >= quiet
+
     def begin_probe(self) -> None:
         """The set-down probe starts: remember the shear index of the carried grip."""
         self._probe_reference = self._mean_shear() if self._levels else None
+        self._probe_start = self._levels[-1][0] if self._levels else self._now
+
+    def probe_disturbed(self) -> bool:
+        """A slip flag came after the probe began: its reference no longer holds."""
+        return math.isfinite(self._last_hold_flag) and self._last_hold_flag >= self._probe_start
 
     def _balance(self) -> tuple[float, float, float]:
         """Mean left and right finger levels over the balance window and the allowed

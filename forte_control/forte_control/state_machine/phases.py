@@ -32,6 +32,9 @@ from forte_control.state_machine.types import (
 
 __all__ = ['GraspPhases']
 
+#: Set-down probes at most begun in one hold: each one a slip or a tightening voided sends
+#: the arm back up for another.
+MAX_PROBES = 3
 #: Set-down probe: time constant of the approach to the end point [s], and the distance
 #: from it at which the probe counts as arrived [m].
 _PROBE_APPROACH = 0.2
@@ -294,19 +297,37 @@ class GraspPhases:
         self._command(position, grasp.params.slip_speed)
 
     def _hold(self, now: float) -> None:
-        """HOLDING: arm still for hold_duration, then the set-down probe, then the verdict."""
+        """HOLDING: arm still for hold_duration and until the grip is quiet, then the set-down
+        probe (again, from the top, if a slip or a tightening disturbed it), then the
+        verdict."""
         grasp = self._grasp
         assert grasp is not None and grasp.lift is not None
         p = grasp.params
         probe = grasp.lift_target - p.lift_distance
+        if grasp.probe_phase in ('down', 'settle') and (
+                grasp.last_tightening_time >= grasp.probe_began or grasp.lift.probe_disturbed()):
+            if grasp.probes >= MAX_PROBES:
+                self._finish(Outcome.NOT_CARRIED, f'lift of {grasp.lift_height:.4f} m '
+                             f'commanded, not verified: slip or tightening in each of '
+                             f'{grasp.probes} set-down probes, the grip never settled')
+                return
+            grasp.probe_phase = 'up'
+        if grasp.probe_phase == 'up':
+            if grasp.lift_height < grasp.lift_target - 1e-12:
+                self._arm_velocity = p.lift_speed
+                self._message = 'set-down probe disturbed: back up to probe again'
+                return
+            grasp.probe_phase = ''
         if not grasp.probe_phase:
             self._arm_velocity = 0.0
-            if now - grasp.phase_start < p.hold_duration:
+            if now - grasp.phase_start < p.hold_duration or not self._grip_quiet(now):
                 return
             if probe <= 0.0:
                 self._judge_lift(now)
                 return
             grasp.probe_phase = 'down'
+            grasp.probe_began = now
+            grasp.probes += 1
             grasp.lift.begin_probe()
             self._message = f'set-down probe: lowering {probe * 1000:.1f} mm'
         if grasp.probe_phase == 'down':
@@ -322,6 +343,20 @@ class GraspPhases:
         self._arm_velocity = 0.0
         if now - grasp.probe_since >= grasp.lift_check.probe_settle:
             self._judge_lift(now)
+
+    def _grip_quiet(self, now: float) -> bool:
+        """The hold's evidence may be judged: no slip flag and no tightening for the probe's
+        settle and averaging time, so the probe's reference (or the verdict's levels) is the
+        grip as it now is, not a grip that was still sliding or being tightened."""
+        grasp = self._grasp
+        assert grasp is not None and grasp.lift is not None
+        check = grasp.lift_check
+        quiet = check.probe_settle + check.probe_window
+        if not check.verify_lift or (now - grasp.last_tightening_time >= quiet
+                                     and grasp.lift.hold_quiet(quiet)):
+            return True
+        self._message = 'holding: slip or tightening in the hold, waiting for a quiet grip'
+        return False
 
     def _lift_arm(self, now: float) -> None:
         """Arm command while LIFTING: on up to the lift height, then HOLDING."""

@@ -73,8 +73,10 @@ class GraspProgress:
     lift: LiftMonitor | None = None
     open_levels: OpenGripperLevels | None = None  # the lift check's zero, from the open gripper
     lift_target: float = 0.0           # lift_distance, plus the set-down probe if any [m]
-    probe_phase: str = ''              # '', 'down' (lowering), 'settle'
+    probe_phase: str = ''              # '', 'down' (lowering), 'settle', 'up' (to probe again)
     probe_since: float = 0.0           # start of the probe's settle [s]
+    probe_began: float = 0.0           # start of the current probe [s]
+    probes: int = 0                    # set-down probes begun [count]
     free_current: float | None = None  # lowest servo current while closing [A]
     slip_events: int = 0
     gross_slip_events: int = 0         # tightenings on the lift monitor's gross-slip evidence
