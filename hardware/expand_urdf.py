@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Expand forte_bringup/urdf/forte_gripper.urdf.xacro into forte_gripper.urdf.
+"""Expand forte_description/urdf/forte_gripper.urdf.xacro into forte_gripper.urdf.
 
 The pre-expanded URDF lets tools without xacro load the gripper. Run after editing the
 xacro (hardware/test/test_urdf.py fails while the two disagree)::
@@ -14,8 +14,8 @@ from pathlib import Path
 import xacro
 
 ROOT = Path(__file__).resolve().parents[1]
-XACRO = Path('forte_bringup/urdf/forte_gripper.urdf.xacro')
-URDF = Path('forte_bringup/urdf/forte_gripper.urdf')
+XACRO = Path('forte_description/urdf/forte_gripper.urdf.xacro')
+URDF = Path('forte_description/urdf/forte_gripper.urdf')
 
 
 def expand() -> str:

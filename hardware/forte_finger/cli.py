@@ -4,7 +4,7 @@ Usage (from the repository root, environment sourced)::
 
     python hardware/generate_finger.py                      # default design -> hardware/out
     python hardware/generate_finger.py --set width=20 --set rib_count=5 --out /tmp/f
-    python hardware/generate_finger.py --visual-mesh forte_bringup/meshes/forte_finger.stl
+    python hardware/generate_finger.py --visual-mesh forte_description/meshes/forte_finger.stl
 """
 from __future__ import annotations
 

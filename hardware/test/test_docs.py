@@ -12,7 +12,7 @@ CONTRACTS = ROOT / 'docs' / 'contracts.md'
 HARDWARE_DOC = ROOT / 'docs' / 'hardware.md'
 WIRING = ROOT / 'hardware' / 'wiring.csv'
 BOM = ROOT / 'hardware' / 'bom.csv'
-URDF = ROOT / 'forte_bringup' / 'urdf' / 'forte_gripper.urdf'
+URDF = ROOT / 'forte_description' / 'urdf' / 'forte_gripper.urdf'
 
 
 def markdown_rows(text: str) -> list[list[str]]:

@@ -12,9 +12,9 @@ from forte_finger import cad
 from forte_finger.design import make_design
 
 ROOT = Path(__file__).resolve().parents[2]
-URDF = ROOT / 'forte_bringup' / 'urdf' / 'forte_gripper.urdf'
-XACRO = ROOT / 'forte_bringup' / 'urdf' / 'forte_gripper.urdf.xacro'
-MESH = ROOT / 'forte_bringup' / 'meshes' / 'forte_finger.stl'
+URDF = ROOT / 'forte_description' / 'urdf' / 'forte_gripper.urdf'
+XACRO = ROOT / 'forte_description' / 'urdf' / 'forte_gripper.urdf.xacro'
+MESH = ROOT / 'forte_description' / 'meshes' / 'forte_finger.stl'
 
 CONTRACT_LINKS = {'forte_base_link', 'forte_left_finger', 'forte_right_finger',
                   'forte_left_pad', 'forte_right_pad'}
@@ -149,7 +149,7 @@ def test_pads_touch_when_closed_mirror_each_other_and_open_with_theta(robot):
 
 def test_finger_mesh_is_the_generated_default_finger(robot):
     filenames = {mesh.get('filename') for mesh in robot.iter('mesh')}
-    assert filenames == {'package://forte_bringup/meshes/forte_finger.stl'}
+    assert filenames == {'package://forte_description/meshes/forte_finger.stl'}
     mesh = trimesh.load(MESH)
     assert mesh.is_watertight
     design = make_design()
