@@ -13,7 +13,7 @@ def share(pattern: str) -> list[str]:
 
 setup(
     name=package_name,
-    version='0.1.0',
+    version='0.2.0',
     packages=find_packages(exclude=['test', 'test.*']),
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
@@ -28,7 +28,8 @@ setup(
     maintainer_email='maintainers@forte-gripper.org',
     description=(
         'FORTE on real devices and bags: serial sensor driver (binary and legacy ASCII '
-        'protocol), Dynamixel gripper driver, bag recording, reading and replay.'
+        'protocol), Dynamixel gripper driver, bag recording, reading and replay, and its fake '
+        'hardware: an emulated sensor board and simulated XM430 servos on pseudo-terminals.'
     ),
     license='Apache-2.0',
     extras_require={'test': ['pytest']},
@@ -37,6 +38,8 @@ setup(
             'serial_sensor_node = forte_driver.ros.serial_sensor_node:main',
             'gripper_driver_node = forte_driver.ros.gripper_driver_node:main',
             'bag_replay_node = forte_driver.ros.bag_replay_node:main',
+            'forte_emulated_sensor = forte_driver.emulators.emulated_sensor:main',
+            'forte_simulated_servo = forte_driver.emulators.simulated_servo:main',
         ],
     },
 )

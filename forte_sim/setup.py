@@ -13,7 +13,7 @@ def share(pattern: str) -> list[str]:
 
 setup(
     name=package_name,
-    version='0.1.0',
+    version='0.2.0',
     packages=find_packages(exclude=['test', 'test.*']),
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
@@ -27,8 +27,8 @@ setup(
     maintainer_email='maintainers@forte-gripper.org',
     description=(
         'The FORTE simulator (gripper, fin-ray fingers, pressure sensor, objects, arm lift, '
-        'ground truth, calibration rig), its node and the bench devices: an emulated sensor '
-        'board and simulated XM430 servos on pseudo-terminals.'
+        'ground truth, calibration rig), its node, and the bench twin that couples the scene '
+        'to the driver\'s emulated devices.'
     ),
     license='Apache-2.0',
     extras_require={'test': ['pytest']},
@@ -36,8 +36,6 @@ setup(
         'console_scripts': [
             'sim_node = forte_sim.ros.sim_node:main',
             'bench_twin_node = forte_sim.ros.bench_twin_node:main',
-            'forte_emulated_sensor = forte_sim.bench_devices.emulated_sensor:main',
-            'forte_simulated_servo = forte_sim.bench_devices.simulated_servo:main',
             'forte_sim_dataset = forte_sim.dataset_tool:main',
         ],
     },

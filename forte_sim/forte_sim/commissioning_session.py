@@ -5,7 +5,7 @@ an operator's press on one finger, a squeeze held on the rig's indentor) on a
 ``calibration`` scene (:func:`forte_sim.make_scene`: the rig's fixed indentor between
 the fingers, no object dynamics), adds the scripted operator's presses
 (:mod:`forte_sim.operator_press`) and applies injected sensor faults
-(:mod:`forte_sim.bench_devices.channel_faults`) to the readings, exactly as the bench twin
+(:mod:`forte_sim.channel_faults`) to the readings, exactly as the bench twin
 does in real time. Returns the raw readings and the sample span of every step, what a
 recording of the live procedure holds.
 """
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from forte_ros.contract import SAMPLE_RATE
-from forte_sim.bench_devices.channel_faults import ChannelFault, ChannelFaultInjector
+from forte_sim.channel_faults import ChannelFault, ChannelFaultInjector
 from forte_sim.model import quantise
 from forte_sim.operator_press import OperatorPress, ScriptedOperator
 from forte_sim.scene import make_scene

@@ -52,7 +52,7 @@ def median_filtered(raw: np.ndarray, baseline: np.ndarray, kernel: int = 11) -> 
                             for c in range(raw.shape[1])])
 
 
-def slip_characterisation_trial(object_name: str, seed: int, lift_seconds: float = 8.0
+def slip_characterization_trial(object_name: str, seed: int, lift_seconds: float = 8.0
                                 ) -> tuple[Scene, np.ndarray, SceneTruth, int]:
     """Slip characterisation trial (paper Sec. IV-B): grip below theta_grasp, lift at 1 mm/s.
 

@@ -1,41 +1,16 @@
-"""Fixtures shared by the tests that talk to the simulated servos (bench devices, the bench
-twin, the driver on the bench).
+"""What forte_sim's tests need from pytest, provided by the package itself.
 
-The simulated servo answers from a Python process on a shared 2-core machine, so its
-status packets can take longer than a servo's silicon. dynamixel-sdk derives every packet
-timeout from its ``LATENCY_TIMER`` setting (16 ms, the U2D2's USB latency timer); raising it
-for these tests gives the peer the slack a slow USB adapter would need, without changing any
-protocol behaviour: a servo that does not answer at all still times out.
-
-Also DDS isolation for every forte_sim test, before any test module imports rclpy
-(discovery on loopback, a domain id held by this process alone; :mod:`forte_ros.isolation`):
-in a clone of the repository ``colcon test`` also finds the workspace's ``conftest.py``
-above this package, but these tests do not rely on it (with a package configuration or
-another layout pytest would not load it).
+- DDS isolation before any test module imports rclpy (discovery on loopback, a domain id
+  held by this process alone; :mod:`forte_ros.isolation`). In a clone of the repository
+  ``colcon test`` also finds the workspace's ``conftest.py`` above this package, but these
+  tests do not rely on it (with a package configuration or another layout pytest would not
+  load it).
+- The simulated-servo fixtures of the bench twin's tests
+  (:mod:`forte_driver.emulators.pytest_fixtures`: a slower peer's latency allowance, the
+  servo pair's port).
 """
-import dynamixel_sdk.port_handler
-import pytest
-from dynamixel_sdk import PortHandler
-
+from forte_driver.emulators.pytest_fixtures import port, slow_peer_latency  # noqa: F401
 from forte_ros.isolation import isolate_ros_network
 from forte_ros.pytest_plugin import leak_guard, pytest_pycollect_makemodule  # noqa: F401 (see that module)
 
 isolate_ros_network()
-
-#: Latency allowance for the simulated servo [ms] (packet timeout = 2 x this + 2 ms + bytes).
-SIMULATED_SERVO_LATENCY_MS = 64
-
-
-@pytest.fixture(autouse=True)
-def slow_peer_latency(monkeypatch):
-    monkeypatch.setattr(dynamixel_sdk.port_handler, 'LATENCY_TIMER', SIMULATED_SERVO_LATENCY_MS)
-
-
-@pytest.fixture
-def port(bus):
-    """The simulated servo pair's pty opened at 4 Mbaud with the real dynamixel-sdk
-    (``bus``: a ``SimulatedServoProcess`` fixture of the test module)."""
-    handler = PortHandler(bus.device_path)
-    assert handler.openPort() and handler.setBaudRate(4_000_000)
-    yield handler
-    handler.closePort()

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from forte_sim.bench_devices.channel_faults import parse_fault
+from forte_sim.channel_faults import parse_fault
 from forte_sim.commissioning_session import SessionStep, simulate_session
 from forte_sim.model import DEFAULT_MODEL, contact_stiffness_scale
 from forte_sim.operator_press import (

@@ -22,7 +22,7 @@ from forte_sim.testing import (
     close_to_force,
     hold,
     median_filtered,
-    slip_characterisation_trial,
+    slip_characterization_trial,
 )
 
 FS = 2000
@@ -85,7 +85,7 @@ def _band_max_db(x):
 
 
 def test_stick_slip_raises_10_to_50_hz_power_at_labelled_onsets():
-    _, raw, truth, offset = slip_characterisation_trial('apple', seed=0)
+    _, raw, truth, offset = slip_characterization_trial('apple', seed=0)
     onsets = truth.slip_onset_indices[truth.slip_onset_types == SLIP_STICK_SLIP] + offset
     assert len(onsets) >= 2
     filtered = median_filtered(raw, raw[:2000])
@@ -208,7 +208,7 @@ def test_sensor_is_quantised_noisy_untared_with_occasional_impulses():
 
 @pytest.mark.parametrize(('name', 'paper_grasp', 'paper_zero'), [('apple', 0.527, 0.552),
                                                                  ('jam_jar', 0.460, 0.476)])
-def test_slip_characterisation_angles_match_the_paper(name, paper_grasp, paper_zero):
+def test_slip_characterization_angles_match_the_paper(name, paper_grasp, paper_zero):
     scene = make_scene('slip_characterization', object_name=name, seed=0)
     assert scene.theta_zero_force == pytest.approx(paper_zero, abs=0.002)
     assert scene.stable_grasp_angle() == pytest.approx(paper_grasp, abs=0.008)

@@ -1,6 +1,6 @@
 """The bench twin as a process: both bench devices on ptys, one scene, the arm on ROS.
 
-Thin ROS shell over :class:`forte_sim.bench_devices.bench_twin.BenchTwin`: the emulated
+Thin ROS shell over :class:`forte_sim.bench_twin.BenchTwin`: the emulated
 sensor board appears at ``sensor_link`` and the simulated XM430 pair at ``servo_link``
 (symlinks to the ptys, what ``hardware.launch.py``'s ``sensor_port`` and ``gripper_port``
 open), so the real serial sensor and gripper driver nodes talk to them exactly as to the
@@ -24,7 +24,7 @@ robot arm:
   presses that finger (:meth:`BenchTwin.press`); a malformed request is logged and ignored.
 
 ``sensor_fault`` injects sensor faults into the board's readings
-(:mod:`forte_sim.bench_devices.channel_faults`, e.g. ``reversed:left_middle``, several
+(:mod:`forte_sim.channel_faults`, e.g. ``reversed:left_middle``, several
 separated by ``;``): commissioning is tested against them. An unreadable value stops the
 node at start-up with one fatal line (exit code 2).
 
@@ -50,8 +50,8 @@ from forte_ros.parameter_table import ParameterSpec, parameter_table
 from forte_ros.parameters import declare_table, read_table
 from forte_ros.qos import COMMANDS, GROUND_TRUTH, LOAD_CELL
 from forte_sim import SCENE_NAMES, make_scene
-from forte_sim.bench_devices.bench_twin import BenchTwin
-from forte_sim.bench_devices.channel_faults import parse_faults
+from forte_sim.bench_twin import BenchTwin
+from forte_sim.channel_faults import parse_faults
 from forte_sim.operator_press import PRESS_LOCATIONS
 from forte_sim.ros.ground_truth import (
     ground_truth_message,

@@ -9,11 +9,11 @@ import pytest
 from rclpy.parameter import Parameter
 from serial_node_harness import Harness, check_batches_are_gap_free_and_true
 
+from forte_driver.emulators.emulated_sensor import EmulatedSensor, FaultPlan
 from forte_msgs.msg import SensorInfo
 from forte_ros.contract import CHANNEL_NAMES
 from forte_ros.qos import SENSOR_INFO
 from forte_ros.sensor_identity import SensorIdentity
-from forte_sim.bench_devices.emulated_sensor import EmulatedSensor, FaultPlan
 
 
 @pytest.fixture

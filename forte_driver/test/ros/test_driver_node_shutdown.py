@@ -18,12 +18,12 @@ from lifecycle_msgs.msg import Transition
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 
+from forte_driver.emulators.emulated_sensor import EmulatedSensor
+from forte_driver.emulators.simulated_servo import SimulatedServoProcess
 from forte_driver.serial.protocol import Command
 from forte_msgs.msg import TactileFrames
 from forte_ros.qos import COMMANDS
 from forte_ros.testing import NodeProcess, Probe, ros_args, wait_until
-from forte_sim.bench_devices.emulated_sensor import EmulatedSensor
-from forte_sim.bench_devices.simulated_servo import SimulatedServoProcess
 
 STOP_TIMEOUT = 5.0  # [s] from the signal to the exit
 SIGNALS = pytest.mark.parametrize('signum', [signal.SIGINT, signal.SIGTERM],

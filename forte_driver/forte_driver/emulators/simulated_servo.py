@@ -9,7 +9,7 @@ limit errors; a refused write changes nothing); Status Return Level, Return Dela
 Baud Rate; motion, current, temperature; hardware errors (overheating, input voltage,
 overload, injected ones) with the alert bit in every status and, for bits in Shutdown(63),
 torque off until REBOOT; error numbers injected in the status of a given instruction
-(:mod:`forte_sim.bench_devices.servo_faults`). The full list, and what is not modelled, is
+(:mod:`forte_driver.emulators.servo_faults`). The full list, and what is not modelled, is
 in docs/gripper_driver.md.
 
 Three modules, one concern each: :mod:`.simulated_xm430` (one servo's control table and
@@ -31,8 +31,8 @@ import sys
 import threading
 
 from forte_driver.dynamixel import control_table as ct
-from forte_sim.bench_devices.simulated_servo_bus import ReceivedPacket, SimulatedServoBus
-from forte_sim.bench_devices.simulated_xm430 import SimulatedXM430
+from forte_driver.emulators.simulated_servo_bus import ReceivedPacket, SimulatedServoBus
+from forte_driver.emulators.simulated_xm430 import SimulatedXM430
 
 __all__ = ['ReceivedPacket', 'SimulatedServoBus', 'SimulatedServoProcess', 'SimulatedXM430',
            'main']
@@ -82,7 +82,7 @@ class SimulatedServoProcess:
     def start(self) -> SimulatedServoProcess:
         """Start the process and wait for its pty path."""
         self._process = subprocess.Popen(
-            [sys.executable, '-m', 'forte_sim.bench_devices.simulated_servo', '--control',
+            [sys.executable, '-m', 'forte_driver.emulators.simulated_servo', '--control',
              *self._arguments],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1)
         self.device_path = self._process.stdout.readline().strip()

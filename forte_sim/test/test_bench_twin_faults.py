@@ -3,12 +3,12 @@ faults, judged from the sensor board's scans as the serial driver reads them."""
 from __future__ import annotations
 
 import numpy as np
-from serial_host import Host
 
+from forte_driver.emulators.serial_host import Host
 from forte_driver.serial.protocol import Command
 from forte_sim import make_scene
-from forte_sim.bench_devices.bench_twin import BenchTwin
-from forte_sim.bench_devices.channel_faults import parse_faults
+from forte_sim.bench_twin import BenchTwin
+from forte_sim.channel_faults import parse_faults
 
 
 def scans_during_press(tmp_path, faults: str, finger: int) -> tuple[np.ndarray, np.ndarray]:

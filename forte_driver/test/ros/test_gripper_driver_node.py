@@ -16,11 +16,11 @@ from sensor_msgs.msg import JointState
 
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import protocol as proto
+from forte_driver.emulators.simulated_servo import SimulatedServoProcess
 from forte_driver.ros.gripper_driver_node import GripperDriverNode
 from forte_msgs.msg import ServoCommand
 from forte_ros.qos import COMMANDS, DIAGNOSTICS
 from forte_ros.testing import wait_until
-from forte_sim.bench_devices.simulated_servo import SimulatedServoProcess
 
 PULSE = 2.0 * math.pi / 4096.0
 

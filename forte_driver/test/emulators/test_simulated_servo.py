@@ -18,8 +18,8 @@ from dynamixel_sdk import (
 
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import protocol as proto
+from forte_driver.emulators.simulated_servo import SimulatedServoProcess, SimulatedXM430
 from forte_ros.testing import wait_until
-from forte_sim.bench_devices.simulated_servo import SimulatedServoProcess, SimulatedXM430
 
 # -- the servo model alone (no I/O) --------------------------------------------------
 

@@ -38,7 +38,7 @@ The scene's ground truth of every step goes to the ``on_truth`` callback (evalua
 
 Commissioning (issue 24): :meth:`BenchTwin.press` has a scripted operator press one finger
 (:mod:`forte_sim.operator_press`; its pressure adds to the scene's readings), and the
-optional ``faults`` (:mod:`forte_sim.bench_devices.channel_faults`: swapped channels or
+optional ``faults`` (:mod:`forte_sim.channel_faults`: swapped channels or
 fingers, a reversed, dead, noisy or leaking channel) are applied to the readings before the
 sensor board sends them, as a miswired or damaged sensor would.
 """
@@ -55,10 +55,10 @@ import numpy as np
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import units
 from forte_driver.dynamixel.gripper_config import FingerConfig, GripperConfig
+from forte_driver.emulators.emulated_sensor import EmulatedSensor
+from forte_driver.emulators.simulated_servo import SimulatedServoProcess
 from forte_ros.contract import COUNTS_PER_FULL_SCALE, N_CHANNELS, SAMPLE_PERIOD
-from forte_sim.bench_devices.channel_faults import ChannelFault, ChannelFaultInjector
-from forte_sim.bench_devices.emulated_sensor import EmulatedSensor
-from forte_sim.bench_devices.simulated_servo import SimulatedServoProcess
+from forte_sim.channel_faults import ChannelFault, ChannelFaultInjector
 from forte_sim.model import quantise
 from forte_sim.operator_press import OperatorPress, ScriptedOperator
 from forte_sim.scene import Scene, make_scene

@@ -9,8 +9,9 @@ import time
 
 import pytest
 import serial
-from serial_host import Host
 
+from forte_driver.emulators.emulated_sensor import EmulatedSensor, FaultPlan
+from forte_driver.emulators.serial_host import Host
 from forte_driver.serial import protocol
 from forte_driver.serial.protocol import (
     AsciiLineDecoder,
@@ -21,7 +22,6 @@ from forte_driver.serial.protocol import (
 )
 from forte_driver.serial.stream import SequenceTracker
 from forte_ros.contract import COUNTS_PER_FULL_SCALE
-from forte_sim.bench_devices.emulated_sensor import EmulatedSensor, FaultPlan
 
 
 @pytest.fixture
@@ -146,7 +146,7 @@ def test_ascii_mode_streams_legacy_lines_with_exact_corrupt_counts(link):
 
 def test_command_line_emulator_runs_until_interrupted(link):
     process = subprocess.Popen(
-        [sys.executable, '-m', 'forte_sim.bench_devices.emulated_sensor', '--link', link,
+        [sys.executable, '-m', 'forte_driver.emulators.emulated_sensor', '--link', link,
          '--rate', '500', '--gap', '0.5', '--seed', '4'], stdout=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 20.0
@@ -220,10 +220,10 @@ def test_sequence_faults_exist_only_in_binary_mode(link):
     with pytest.raises(ValueError, match='implausible'):
         EmulatedSensor(link).inject('gap', kind='time')
     result = subprocess.run(
-        [sys.executable, '-m', 'forte_sim.bench_devices.emulated_sensor', '--protocol', 'ascii',
+        [sys.executable, '-m', 'forte_driver.emulators.emulated_sensor', '--protocol', 'ascii',
          '--restart', '0.1', '--link', link], capture_output=True, text=True, timeout=30)
     assert result.returncode == 2 and 'binary' in result.stderr
-    help_text = subprocess.run([sys.executable, '-m', 'forte_sim.bench_devices.emulated_sensor',
+    help_text = subprocess.run([sys.executable, '-m', 'forte_driver.emulators.emulated_sensor',
                                 '--help'], capture_output=True, text=True, timeout=30).stdout
     for name in ('--duplicate', '--reorder', '--implausible', '--restart'):
         assert name in help_text

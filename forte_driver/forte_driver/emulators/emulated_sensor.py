@@ -13,7 +13,7 @@ symlink.
 
 Faults are injected per transmitted scan with seeded probabilities (:class:`FaultPlan`)
 or on demand (:meth:`EmulatedSensor.inject`); their kinds and bookkeeping are in
-:mod:`forte_sim.bench_devices.emulated_faults`
+:mod:`forte_driver.emulators.emulated_faults`
 (line faults: garbage, truncation, bit flips, gaps,
 bursts; binary-only sequence faults: duplicated, reordered and CRC-valid implausible
 frames, device restarts without a host START). Every fault is logged with its expected
@@ -36,10 +36,7 @@ import time
 import tty
 from collections import deque
 
-from forte_driver.serial import protocol
-from forte_driver.serial.protocol import Ack, Command, CommandFrame, Info, Sample, Status
-from forte_ros.contract import COUNTS_PER_FULL_SCALE, N_CHANNELS, SAMPLE_RATE
-from forte_sim.bench_devices.emulated_faults import (
+from forte_driver.emulators.emulated_faults import (
     BINARY_ONLY_FAULTS,
     FAULTS,
     IMPLAUSIBLE_KINDS,
@@ -47,6 +44,9 @@ from forte_sim.bench_devices.emulated_faults import (
     FaultPlan,
     implausible_frame,
 )
+from forte_driver.serial import protocol
+from forte_driver.serial.protocol import Ack, Command, CommandFrame, Info, Sample, Status
+from forte_ros.contract import COUNTS_PER_FULL_SCALE, N_CHANNELS, SAMPLE_RATE
 
 
 def default_signal(sequence: int, time_us: int) -> tuple[int, ...]:

@@ -13,8 +13,8 @@ from forte_driver.dynamixel.gripper import (
     GripperLimits,
     check_command,
 )
+from forte_driver.emulators.simulated_servo import SimulatedServoProcess
 from forte_ros.testing import wait_until
-from forte_sim.bench_devices.simulated_servo import SimulatedServoProcess
 
 LIMITS = GripperLimits(theta_min=0.0, theta_max=1.0, current_limit=1.0,
                        velocity_limit=4.796, temperature_limit=70)

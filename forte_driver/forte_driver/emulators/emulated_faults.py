@@ -1,6 +1,6 @@
 """Fault kinds of the emulated sensor board and their bookkeeping (pure Python).
 
-Used by :mod:`forte_sim.bench_devices.emulated_sensor`: :class:`FaultPlan` (probability
+Used by :mod:`forte_driver.emulators.emulated_sensor`: :class:`FaultPlan` (probability
 per scan of each fault), :class:`FaultLog` (what was injected and its exact expected effect on the
 host) and :func:`implausible_frame` (a CRC-valid frame with impossible content).
 """

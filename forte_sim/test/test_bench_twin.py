@@ -11,13 +11,13 @@ import time
 
 import numpy as np
 import pytest
-from serial_host import Host
 
 from forte_driver.dynamixel.gripper import DynamixelError, Gripper, GripperConfig
+from forte_driver.emulators.serial_host import Host
 from forte_driver.serial.protocol import Command
 from forte_ros.contract import COUNTS_PER_FULL_SCALE, SAMPLE_PERIOD
 from forte_sim import make_scene
-from forte_sim.bench_devices.bench_twin import BenchTwin
+from forte_sim.bench_twin import BenchTwin
 
 
 @pytest.fixture

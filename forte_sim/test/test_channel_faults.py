@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from forte_sim.bench_devices.channel_faults import (
+from forte_sim.channel_faults import (
     FAULT_KINDS,
     ChannelFault,
     ChannelFaultInjector,

@@ -9,11 +9,11 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.parameter import Parameter
 
+from forte_driver.emulators.emulated_sensor import EmulatedSensor
 from forte_driver.ros.serial_sensor_node import SerialSensorNode
 from forte_msgs.msg import TactileFrames
 from forte_ros.qos import DIAGNOSTICS, SENSOR_FRAMES, reliable
 from forte_ros.testing import SpinningGraph, wait_until
-from forte_sim.bench_devices.emulated_sensor import EmulatedSensor
 
 
 class Harness:

@@ -27,8 +27,8 @@ from forte_driver.dynamixel.status_errors import (
     status_error_kinds,
     sync_read_with_status,
 )
-from forte_sim.bench_devices.servo_faults import StatusFaults
-from forte_sim.bench_devices.simulated_servo import SimulatedServoProcess
+from forte_driver.emulators.servo_faults import StatusFaults
+from forte_driver.emulators.simulated_servo import SimulatedServoProcess
 
 ERROR_NUMBERS = {1: 'result fail', 2: 'instruction error', 3: 'CRC error',
                  4: 'data range error', 5: 'data length error', 6: 'data limit error',

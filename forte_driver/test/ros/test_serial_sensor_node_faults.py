@@ -12,8 +12,8 @@ import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 from serial_node_harness import Harness, check_batches_are_gap_free_and_true, diagnostic_records
 
+from forte_driver.emulators.emulated_sensor import EmulatedSensor, FaultPlan
 from forte_driver.serial.protocol import Command
-from forte_sim.bench_devices.emulated_sensor import EmulatedSensor, FaultPlan
 
 #: Published diagnostics counters named after the StreamAssembler attributes.
 COUNTER_KEYS = ('samples', 'dropped_frames', 'corrupt_frames', 'implausible_frames',

@@ -6,8 +6,8 @@ out, with CRC-16, byte stuffing, the status error byte, the return delay time an
 transmission time of the configured baud rate. Modelled instructions: PING, READ, WRITE,
 SYNC READ, SYNC WRITE, REBOOT; Status Return Level, Return Delay Time and Baud Rate are
 obeyed; error numbers can be injected in the status of a given instruction
-(:mod:`forte_sim.bench_devices.servo_faults`). Each servo is a
-:class:`~forte_sim.bench_devices.simulated_xm430.SimulatedXM430`.
+(:mod:`forte_driver.emulators.servo_faults`). Each servo is a
+:class:`~forte_driver.emulators.simulated_xm430.SimulatedXM430`.
 """
 from __future__ import annotations
 
@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import protocol as proto
-from forte_sim.bench_devices.servo_faults import StatusFaults
-from forte_sim.bench_devices.simulated_xm430 import SimulatedXM430
+from forte_driver.emulators.servo_faults import StatusFaults
+from forte_driver.emulators.simulated_xm430 import SimulatedXM430
 
 
 @dataclass
