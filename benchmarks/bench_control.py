@@ -79,8 +79,8 @@ def bench_step(n: int = 20000) -> None:
 
 # ------------------------------------------------------------------ 2. closed loop
 def bench_closed_loop() -> None:
-    from forte_bringup.closed_loop import run_trial
-    from forte_bringup.sim_force_model import default_force_model
+    from forte_evaluation.closed_loop import run_trial
+    from forte_evaluation.sim_force_model import default_force_model
     from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
     from forte_sim import make_scene
 

@@ -9,10 +9,10 @@ time from ``/proc/<pid>/stat`` (utime + stime, in % of one core) over each phase
   reset and auto-tare); the outcome of every grasp and the ground truth are counted, and any
   STALE_* fault is reported;
 - **hardware**: the emulated tactile sensor and the simulated Dynamixel pair on
-  pseudo-terminals (``forte_sim.bench_devices.emulated_sensor``,
-  ``forte_sim.bench_devices.simulated_servo``),
+  pseudo-terminals (``forte_driver.emulators.emulated_sensor``,
+  ``forte_driver.emulators.simulated_servo``),
   idle;
-- **replay**: a bag of a quiet sensor (``graph_probe.write_quiet_bag``) replayed at its
+- **replay**: a bag of a quiet sensor (``forte_bringup.testing.write_quiet_bag``) replayed at its
   recorded rate.
 
 Baseline, in the same run and graph: an **echo node** (``bench_perception_node.ECHO_NODE``)
@@ -45,7 +45,6 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-sys.path.insert(0, str(HERE.parent / 'forte_bringup' / 'test'))  # graph_probe: test devices
 
 from bench_perception_node import ECHO_NODE, proc_cpu_seconds  # noqa: E402
 
@@ -284,9 +283,8 @@ def run_sim(args: argparse.Namespace, folder: Path, model: Path) -> dict:
 
 
 def run_hardware(args: argparse.Namespace, folder: Path, model: Path) -> None:
-    from graph_probe import emulated_devices
-
     from forte_bringup.bringup import Bringup
+    from forte_bringup.testing import emulated_devices
 
     with emulated_devices(folder) as (sensor, gripper):
         bringup = Bringup('hardware', {'sensor_port': str(sensor), 'gripper_port': str(gripper),
@@ -307,9 +305,8 @@ def run_hardware(args: argparse.Namespace, folder: Path, model: Path) -> None:
 
 
 def run_replay(args: argparse.Namespace, folder: Path, model: Path) -> None:
-    from graph_probe import write_quiet_bag
-
     from forte_bringup.bringup import Bringup
+    from forte_bringup.testing import write_quiet_bag
 
     bag = write_quiet_bag(folder / 'bag', messages=int(100 * (args.idle + 15.0)))
     bringup = Bringup('replay', {'bag': str(bag), 'rate': '1.0', 'force_model': str(model)},
@@ -337,7 +334,7 @@ def main(argv: list[str] | None = None) -> int:
     domain = isolate_ros_network()
     print(f'[bench_graph] ROS_DOMAIN_ID={domain}, discovery on localhost only; '
           f'{os.cpu_count()} CPUs', flush=True)
-    from forte_bringup.sim_force_model import default_force_model
+    from forte_evaluation.sim_force_model import default_force_model
 
     with tempfile.TemporaryDirectory(prefix='forte_bench_graph_') as tmp:
         folder = Path(tmp)

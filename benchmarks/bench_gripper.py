@@ -23,7 +23,7 @@ from dynamixel_sdk import COMM_SUCCESS
 
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel.gripper import Gripper, GripperConfig
-from forte_sim.bench_devices.simulated_servo import SimulatedServoProcess
+from forte_driver.emulators.simulated_servo import SimulatedServoProcess
 
 DURATION_S = 3.0
 

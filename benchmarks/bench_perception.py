@@ -153,7 +153,7 @@ def bench_slip(quick: bool) -> dict:
 def calibration_rows():
     """Training rows from the simulator's calibration rig (quick protocol: 6 indentors x 8
     trials), or from a made-up sensor when the simulator is not installed."""
-    from forte_perception.calibration import make_rows
+    from forte_perception.force_training import make_rows
     try:
         from forte_sim.dataset import QUICK_PROTOCOL, generate_calibration_dataset
         dataset = generate_calibration_dataset(QUICK_PROTOCOL)

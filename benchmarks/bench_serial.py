@@ -28,8 +28,8 @@ isolate_ros_network()
 import binascii  # noqa: E402
 import struct  # noqa: E402
 
+from forte_driver.emulators.emulated_sensor import default_signal  # noqa: E402
 from forte_driver.serial import protocol  # noqa: E402
-from forte_sim.bench_devices.emulated_sensor import default_signal  # noqa: E402
 
 
 def make_streams(count: int) -> tuple[bytes, bytes]:
@@ -96,7 +96,7 @@ def run_driver(protocol_name: str, seconds: float) -> dict:
     from forte_driver.ros.serial_sensor_node import SerialSensorNode
 
     link = os.path.join(tempfile.mkdtemp(prefix='forte_bench_'), 'forte_sensor')
-    device = subprocess.Popen([sys.executable, '-m', 'forte_sim.bench_devices.emulated_sensor',
+    device = subprocess.Popen([sys.executable, '-m', 'forte_driver.emulators.emulated_sensor',
                                '--link', link, '--protocol', protocol_name, '--rate', '2000'],
                               stdout=subprocess.DEVNULL)
     context = rclpy.Context()

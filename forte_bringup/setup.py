@@ -13,15 +13,13 @@ def share(pattern: str) -> list[str]:
 
 setup(
     name=package_name,
-    version='0.1.0',
+    version='0.2.0',
     packages=find_packages(exclude=['test', 'test.*']),
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', share('config/*.yaml')),
         ('share/' + package_name + '/launch', share('launch/*.py')),
-        ('share/' + package_name + '/urdf', share('urdf/*')),
-        ('share/' + package_name + '/meshes', share('meshes/*')),
         ('share/' + package_name + '/rviz', share('rviz/*.rviz')),
         ('share/' + package_name + '/plotjuggler', share('plotjuggler/*.xml')),
     ],
@@ -30,20 +28,17 @@ setup(
     maintainer='FORTE maintainers',
     maintainer_email='maintainers@forte-gripper.org',
     description=(
-        'FORTE launch files (hardware, simulation, bag replay), parameter files, '
-        'bag recording, the demo and the evaluation harness.'
+        'FORTE on a machine: launch files of the hardware, simulation and bag-replay graphs, '
+        'their parameter files, the bare-machine runner, bag recording, RViz and '
+        'PlotJuggler views, and the demo.'
     ),
     license='Apache-2.0',
     extras_require={'test': ['pytest']},
     entry_points={
         'console_scripts': [
             'forte_bringup = forte_bringup.bringup:main',
-            'forte_record = forte_bringup.record:main',
+            'forte_record = forte_bringup.bag_recorder:main',
             'forte_demo = forte_bringup.demo:main',
-            'forte_evaluate = forte_bringup.evaluate:main',
-            'forte_commission = forte_bringup.commission_node:main',
-            'forte_calibrate_force = forte_bringup.calibrate_force:main',
-            'forte_slip_lift = forte_bringup.slip_lift_node:main',
             'forte_visualization = forte_bringup.visualization_node:main',
         ],
     },

@@ -13,7 +13,7 @@ def share(pattern: str) -> list[str]:
 
 setup(
     name=package_name,
-    version='0.1.0',
+    version='0.2.0',
     packages=find_packages(exclude=['test', 'test.*']),
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
@@ -27,8 +27,7 @@ setup(
     maintainer_email='maintainers@forte-gripper.org',
     description=(
         'FORTE signal processing (median filter, tare, contact, SVR force estimation, PSD '
-        'slip detection) as a pure library, the perception node, and offline training, '
-        'evaluation and benchmark tools.'
+        'slip detection) as a pure library, the perception node, and force-model training.'
     ),
     license='Apache-2.0',
     extras_require={'test': ['pytest']},
@@ -36,8 +35,6 @@ setup(
         'console_scripts': [
             'perception_node = forte_perception.ros.perception_node:main',
             'forte_train_force = forte_perception.tools.train_force:main',
-            'forte_evaluate_slip = forte_perception.tools.evaluate_slip:main',
-            'forte_tune_slip = forte_perception.tools.tune_slip:main',
         ],
     },
 )

@@ -48,7 +48,6 @@ from forte_bringup.graph import (
     NodeSpec,
     argument_settings,
     clock_remappings,
-    graph_namespace,
     namespaced_parameter_file,
     overlay_nodes,
     parameter_text,
@@ -56,6 +55,7 @@ from forte_bringup.graph import (
     recorder_topics,
 )
 from forte_bringup.graph_nodes import force_model_source, prepare_force_model, started_nodes
+from forte_ros.contract import graph_namespace
 from forte_ros.isolation import isolate_ros_network
 
 #: lifecycle_msgs/msg/Transition ids used here.
@@ -291,7 +291,7 @@ class Bringup:
         out = {}
         arguments = dict(self.arguments)
         if self.force_model_source == 'sim':
-            from forte_bringup.sim_force_model import force_model_path
+            from forte_evaluation.sim_force_model import force_model_path
 
             arguments['force_model'] = str(force_model_path())  # made by start()
         for spec in self.nodes:

@@ -53,7 +53,7 @@ def say(text: str) -> None:
 
 def prepare_force_model(output: Path) -> Path:
     """The simulated-rig force model for the perception node, saved next to the report."""
-    from forte_bringup.sim_force_model import default_force_model
+    from forte_evaluation.sim_force_model import default_force_model
 
     path = output / 'force_model.npz'
     say('force model: training on the simulated calibration rig (cached after the first run)')
@@ -71,7 +71,7 @@ class DemoClient:
         from sensor_msgs.msg import JointState
         from std_srvs.srv import Trigger
 
-        from forte_bringup.record import BagRecorder
+        from forte_bringup.bag_recorder import BagRecorder
         from forte_msgs.action import Grasp
         from forte_msgs.msg import SimGroundTruth, TactileState
         from forte_ros.qos import COMMANDS, GROUND_TRUTH, TACTILE_STATE

@@ -7,25 +7,28 @@ executables under the same node names, with the same parameter file and remappin
 Pure data (no rclpy, no launch).
 
 Several graphs share one ROS domain through the ``namespace`` and ``prefix`` arguments
-(:func:`graph_namespace`, :func:`check_prefix`): the namespace holds every node, topic,
-service and action of the graph (a namespaced sim graph also moves its clock to
-``<namespace>/clock``), the prefix is prepended to every frame id and joint name its nodes
-publish or consume (their ``prefix`` parameter). Only ``/rosout``, ``/parameter_events``,
-``/diagnostics`` (and ``/tf``, ``/tf_static`` where a graph publishes TF) stay global.
-Every graph ends with :data:`VISUALIZATION` and :data:`ROBOT_STATE_PUBLISHER`, each with an
-on/off argument; which nodes start is :func:`forte_bringup.graph_nodes.started_nodes`.
+(:func:`forte_ros.contract.graph_namespace`, :func:`~forte_ros.contract.check_prefix`): the
+namespace holds every node, topic, service and action of the graph (a namespaced sim graph
+also moves its clock to ``<namespace>/clock``), the prefix is prepended to every frame id and
+joint name its nodes publish or consume (their ``prefix`` parameter). Only ``/rosout``,
+``/parameter_events``, ``/diagnostics`` (and ``/tf``, ``/tf_static`` where a graph publishes
+TF) stay global. Every graph ends with :data:`VISUALIZATION` and
+:data:`ROBOT_STATE_PUBLISHER`, each with an on/off argument; which nodes start is
+:func:`forte_bringup.graph_nodes.started_nodes`.
 """
 from __future__ import annotations
 
 import json
 import os
-import re
 import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
+
+from forte_bringup.robot_model import robot_state_publisher_parameters
+from forte_ros.contract import check_prefix, graph_namespace
 
 
 @dataclass(frozen=True)
@@ -135,7 +138,7 @@ class GraphSpec:
 
     ``sim_force_model``: without a force model (no ``force_model`` argument, no
     perception ``model_path`` in the YAML or overlay) perception gets the simulated rig's
-    model (:func:`forte_bringup.sim_force_model.default_force_model_file`); only the sim
+    model (:func:`forte_evaluation.sim_force_model.default_force_model_file`); only the sim
     graph, whose sensor is that rig's.
     """
 
@@ -217,7 +220,6 @@ def argument_settings(spec: NodeSpec, arguments: Mapping[str, str],
                 raise ValueError(f'argument {argument}:={value}: {error}') from error
         parameters[parameter] = value
     if spec.robot_model:
-        from forte_bringup.robot_model import robot_state_publisher_parameters
 
         parameters.update(robot_state_publisher_parameters(arguments.get('prefix', '')))
     return remappings, parameters
@@ -396,54 +398,8 @@ def overlay_nodes(path: str | Path, graph: GraphSpec) -> set[str]:
 
 
 #: A ROS namespace token: letters, digits, underscores, not starting with a digit.
-_NAMESPACE_TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*')
 #: A TF / joint-name prefix: letters, digits, underscores and inner slashes (tf2 frame ids
 #: never start with a slash).
-_PREFIX = re.compile(r'[A-Za-z0-9_][A-Za-z0-9_/]*')
-
-
-def graph_namespace(text: str) -> str:
-    """The ``namespace`` argument as an absolute ROS namespace.
-
-    Parameters
-    ----------
-    text : str
-        ``''`` (root), ``right``, ``/right``, ``/robots/right/``, ...
-
-    Returns
-    -------
-    str
-        ``''`` for the root namespace, else ``/token[/token...]`` (no trailing slash).
-
-    Raises
-    ------
-    ValueError
-        If a token is not a valid ROS name (letters, digits, underscores; not starting
-        with a digit; no empty token inside).
-    """
-    stripped = text.strip().strip('/')
-    if not stripped:
-        return ''
-    tokens = stripped.split('/')
-    bad = [token for token in tokens if not _NAMESPACE_TOKEN.fullmatch(token)]
-    if bad:
-        raise ValueError(f'namespace {text!r}: {bad[0]!r} is not a valid ROS name (letters, '
-                         'digits and underscores, not starting with a digit)')
-    return '/' + '/'.join(tokens)
-
-
-def check_prefix(prefix: str) -> str:
-    """The ``prefix`` argument, checked.
-
-    Raises
-    ------
-    ValueError
-        If it is not empty and not letters, digits, underscores and inner slashes.
-    """
-    if prefix and not _PREFIX.fullmatch(prefix):
-        raise ValueError(f'prefix {prefix!r}: expected letters, digits, underscores (e.g. '
-                         'right_), not starting with a slash')
-    return prefix
 
 
 def clock_remappings(graph: GraphSpec | None, arguments: Mapping[str, str]

@@ -95,7 +95,7 @@ def started_nodes(graph: GraphSpec, arguments: Mapping[str, str],
 NO_FORCE_MODEL_WARNING = (
     'no force model (force_model:= empty, no perception model_path in the YAML): FORTE and '
     'NO_SLIP grasps will end FAULT INVALID_INPUT (no valid force estimate); ON_OFF works. '
-    'Calibrate this gripper (ros2 launch forte_bringup calibrate_force.launch.py '
+    'Calibrate this gripper (ros2 launch forte_commissioning calibrate_force.launch.py '
     'mode:=hardware, then forte_train_force) and give force_model:=<model.npz>. The '
     "simulated rig's model is never used on hardware.")
 
@@ -167,7 +167,7 @@ def prepare_force_model(source: str, graph_name: str, say: Callable[[str], None]
         The model file to give perception (``force_model``) for source ``'sim'``; else None.
     """
     if source == 'sim':
-        from forte_bringup.sim_force_model import default_force_model_file, force_model_path
+        from forte_evaluation.sim_force_model import default_force_model_file, force_model_path
 
         if not force_model_path().is_file():
             say(f"making the simulated rig's force model (6-13 s, once; cached as "

@@ -16,7 +16,7 @@ loaded after ``params_file`` by every node it names, so its values override the 
 still come last). Its top-level keys must be node names of the graph (or ``/**``), each with
 a ``ros__parameters`` mapping; anything else stops the launch with the reason. Written e.g.
 by the slip threshold tuning (``forte_tune_slip``,
-``python -m forte_bringup.procedures.slip_characterisation``).
+``python -m forte_commissioning.slip_characterization``).
 
 ``namespace:=NAME`` (every graph) starts every node in that namespace (``Node(namespace=)``),
 with copies of the parameter files keyed by the namespaced node names
@@ -32,7 +32,7 @@ comes up without it (:func:`forte_bringup.graph_nodes.started_nodes`).
 
 The sim graph without a force model (no ``force_model:=``, no ``model_path`` in the YAML)
 gives perception the simulated rig's model, made on first use and cached
-(:func:`forte_bringup.sim_force_model.default_force_model_file`, 6-13 s once); the
+(:func:`forte_evaluation.sim_force_model.default_force_model_file`, 6-13 s once); the
 hardware graph without one logs :data:`forte_bringup.graph_nodes.NO_FORCE_MODEL_WARNING`.
 """
 from __future__ import annotations
@@ -63,12 +63,12 @@ from forte_bringup.graph import (
     NodeSpec,
     argument_settings,
     clock_remappings,
-    graph_namespace,
     namespaced_parameter_file,
     overlay_nodes,
     recorder_topics,
 )
 from forte_bringup.graph_nodes import force_model_source, prepare_force_model, started_nodes
+from forte_ros.contract import graph_namespace
 
 
 def node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],

@@ -14,7 +14,7 @@ figure per grasp with five panels sharing the time axis:
 A bag recorded from a namespaced graph (``namespace:=right``: ``/right/tactile/state``, ...)
 is read in its namespace: ``traces_from_bag(..., namespace=None)`` detects it, or refuses a
 bag holding several namespaces' FORTE topics and asks for one
-(:mod:`forte_bringup.bag_namespace`).
+(:mod:`forte_driver.replay.bag_namespace`).
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from forte_bringup.bag_namespace import read_namespaced
+from forte_driver.replay.bag_namespace import read_namespaced
 from forte_perception.evaluation.slip_metrics import format_value
 from forte_ros.contract import CHANNEL_NAMES, stamp_seconds
 
@@ -92,7 +92,7 @@ def traces_from_bag(bag: str | Path, windows: Sequence[tuple[str, int, int]],
     ------
     ValueError
         If the bag holds the topics of several namespaces and none is given, or none in
-        the given one (:func:`forte_bringup.bag_namespace.choose_namespace`).
+        the given one (:func:`forte_driver.replay.bag_namespace.choose_namespace`).
     """
     from rclpy.serialization import deserialize_message
 
@@ -243,11 +243,11 @@ def outcome_table(rows: Sequence[dict]) -> str:
     """Markdown table of grasp outcomes (one row per grasp).
 
     The column "agrees" says whether the controller's outcome and the ground truth agree on
-    whether the object was carried (:func:`forte_bringup.metrics.carrying_agreement`, as the
+    whether the object was carried (:func:`forte_evaluation.metrics.carrying_agreement`, as the
     evaluation judges it): ``yes``, ``NO``, or ``-`` where the outcome makes no claim about
     carrying or the truth cannot judge it (BROKEN, CRUSHED). A missing number prints ``n/a``.
     """
-    from forte_bringup.metrics import carrying_agreement
+    from forte_evaluation.metrics import carrying_agreement
 
     header = ['object', 'controller', 'outcome', 'object (truth)', 'object height [mm]',
               'agrees', 'lift [mm]', 'final force [N]', 'max true force [N]', 'slip events',

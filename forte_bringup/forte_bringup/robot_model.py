@@ -3,7 +3,8 @@
 Pure Python (no rclpy, no launch): what a graph needs to publish the gripper's TF (body,
 fingers following ``joint_states``, contact pads) through ``robot_state_publisher``:
 
-- :func:`expand_gripper` expands ``urdf/forte_gripper.urdf.xacro`` for a name prefix and
+- :func:`expand_gripper` expands forte_description's ``urdf/forte_gripper.urdf.xacro`` for a
+  name prefix and
   returns the URDF text, the value of robot_state_publisher's ``robot_description``
   parameter (:func:`robot_state_publisher_parameters`);
 - :func:`robot_state_publisher_executable` finds robot_state_publisher as ``ros2 run`` would
@@ -11,14 +12,17 @@ fingers following ``joint_states``, contact pads) through ``robot_state_publishe
   no wheel of it), and a graph then prints :data:`ROBOT_STATE_PUBLISHER_MISSING` once and
   runs without it (:func:`robot_state_publisher_message`).
 
-The URDF folder is the source tree next to this module when it exists (editable install),
-else ``share/forte_bringup/urdf`` of the first prefix that has it (:func:`urdf_folder`).
+The URDF folder is forte_description's in the source tree beside this package when it
+exists (editable install), else ``share/forte_description/urdf`` of the first prefix that has
+it (:func:`urdf_folder`).
 """
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping
 from pathlib import Path
+
+from forte_ros.contract import check_prefix
 
 __all__ = ['GRIPPER_XACRO', 'MACRO_XACRO', 'ROBOT_DESCRIPTION_TOPIC', 'ROBOT_STATE_PUBLISHER',
            'ROBOT_STATE_PUBLISHER_MISSING', 'expand_gripper', 'robot_state_publisher_available',
@@ -49,16 +53,16 @@ def urdf_folder(environ: Mapping[str, str] | None = None) -> Path:
     Returns
     -------
     Path
-        ``forte_bringup/urdf`` of the source tree when it holds :data:`GRIPPER_XACRO`, else
-        ``<prefix>/share/forte_bringup/urdf`` of the first prefix that holds it, else the
+        ``forte_description/urdf`` of the source tree when it holds :data:`GRIPPER_XACRO`, else
+        ``<prefix>/share/forte_description/urdf`` of the first prefix that holds it, else the
         source path (whose absence the caller's open reports).
     """
-    source = Path(__file__).resolve().parents[1] / 'urdf'
+    source = Path(__file__).resolve().parents[2] / 'forte_description' / 'urdf'
     if (source / GRIPPER_XACRO).is_file():
         return source
     environ = os.environ if environ is None else environ
     for prefix in environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
-        folder = Path(prefix) / 'share' / 'forte_bringup' / 'urdf'
+        folder = Path(prefix) / 'share' / 'forte_description' / 'urdf'
         if prefix and (folder / GRIPPER_XACRO).is_file():
             return folder
     return source
@@ -71,7 +75,7 @@ def expand_gripper(prefix: str = '', xacro_file: str | Path | None = None) -> st
     ----------
     prefix : str
         Prepended to every link, joint and material name, as the graphs' ``prefix``
-        argument (:func:`forte_bringup.graph.check_prefix`: letters, digits, underscores,
+        argument (:func:`forte_ros.contract.check_prefix`: letters, digits, underscores,
         inner slashes), e.g. ``'right_'``; ``''`` gives the names of docs/contracts.md.
     xacro_file : str or Path, optional
         A xacro file with a ``prefix`` argument (default: :data:`GRIPPER_XACRO` of
@@ -91,8 +95,6 @@ def expand_gripper(prefix: str = '', xacro_file: str | Path | None = None) -> st
         The xacro file cannot be read.
     """
     import xacro  # deferred: graph descriptions import this module without expanding
-
-    from forte_bringup.graph import check_prefix  # deferred: graph.py may import this module
 
     check_prefix(prefix)
     path = Path(xacro_file) if xacro_file is not None else urdf_folder() / GRIPPER_XACRO

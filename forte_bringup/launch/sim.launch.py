@@ -5,7 +5,7 @@ grasp control.
     ros2 launch forte_bringup sim.launch.py namespace:=right prefix:=right_   # a 2nd gripper
 
 Without ``force_model:=`` perception gets the simulated rig's force model (made on the first
-start, 6-13 s, and cached: ``python -m forte_bringup.sim_force_model``).
+start, 6-13 s, and cached: ``python -m forte_evaluation.sim_force_model``).
 
 Also started: forte_visualization (pad wrenches, markers; ``visualization:=false``: not)
 and robot_state_publisher with the gripper's URDF for ``prefix`` where it is installed

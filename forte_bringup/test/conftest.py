@@ -7,32 +7,15 @@ configuration or another layout hides them):
 
 - DDS isolation before any test module imports rclpy (discovery on loopback, a domain id
   held by this process alone; :mod:`forte_ros.isolation`);
-- the markers these tests use: ``slow``, and ``timeout`` of pytest-timeout (declared as
-  ``<test_depend>python3-pytest-timeout</test_depend>``). Both are registered here as well,
-  so that the tests collect under ``--strict-markers`` whether the plugin is installed or
-  not (without it, ``timeout`` sets no limit).
+- the markers these tests use, ``slow`` and ``timeout`` of pytest-timeout (declared as
+  ``<test_depend>python3-pytest-timeout</test_depend>``), registered by
+  :func:`forte_ros.pytest_plugin.pytest_configure`.
 """
-import pytest
-
 from forte_ros.isolation import isolate_ros_network
-from forte_ros.pytest_plugin import leak_guard, pytest_pycollect_makemodule  # noqa: F401 (see that module)
-
-isolate_ros_network()
-
-#: ``markers`` lines registered unless already known (pytest.ini or a plugin).
-MARKERS = (
-    'slow: takes more than ~20 s',
-    'timeout(seconds): fail the test after this many seconds (pytest-timeout; inert without it)',
+from forte_ros.pytest_plugin import (  # noqa: F401 (pytest hooks and fixtures, see that module)
+    leak_guard,
+    pytest_configure,
+    pytest_pycollect_makemodule,
 )
 
-
-def _marker_name(line: str) -> str:
-    return line.split(':')[0].split('(')[0].strip()
-
-
-@pytest.hookimpl(trylast=True)  # after the plugins have registered theirs
-def pytest_configure(config):
-    known = {_marker_name(line) for line in config.getini('markers')}
-    for line in MARKERS:
-        if _marker_name(line) not in known:
-            config.addinivalue_line('markers', line)
+isolate_ros_network()

@@ -98,7 +98,7 @@ def mismatches(got: dict[tuple[str, str], tuple[str, str]], graph: bool = False)
 def closed_loop_results(model) -> dict[tuple[str, str], tuple[str, str]]:
     """The nine demo grasps run by ``run_trial`` on the demo's scenes (20-sample perception
     updates): (object, controller) -> (outcome, final ground-truth object state)."""
-    from forte_bringup.closed_loop import run_trial
+    from forte_evaluation.closed_loop import run_trial
 
     results = {}
     for object_name, controller in EXPECTED:

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 import rclpy
 import yaml
-from graph_probe import interrupt, python_module
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rclpy.executors import SingleThreadedExecutor
@@ -23,7 +22,8 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.rosbag2 import Reader as RosbagsReader
 
-from forte_bringup.record import BagRecorder
+from forte_bringup.bag_recorder import BagRecorder
+from forte_bringup.testing import interrupt, python_module
 from forte_driver.replay.bags import BagError, BagWriter, TopicSpec, forte_typestore, read_bag
 from forte_msgs.msg import GraspState, TactileFrames
 from forte_ros.testing import wait_until
@@ -178,7 +178,7 @@ def test_forte_record_executable_stops_cleanly_on_sigint(executor, tmp_path):
     talker = Talker(best_effort=True)  # the sensor-data QoS of the contract
     executor.add_node(talker)
     bag = tmp_path / 'cli_bag'
-    with python_module('forte_bringup.record', '-o', str(bag),
+    with python_module('forte_bringup.bag_recorder', '-o', str(bag),
                        '--topics', 'tactile/frames') as process:
         assert wait_until(lambda: talker.frames.get_subscription_count() == 1, timeout=20.0)
         time.sleep(0.5)

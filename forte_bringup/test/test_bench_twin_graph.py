@@ -23,11 +23,11 @@ pytest.importorskip('launch_ros', reason=REASON)
 
 import launch  # noqa: E402
 import yaml  # noqa: E402
-from graph_probe import bench_twin, force_model_file, watching  # noqa: E402
 from launch.actions import IncludeLaunchDescription  # noqa: E402
 from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
 
 from forte_bringup.graph import params_file  # noqa: E402
+from forte_bringup.testing import bench_twin, force_model_file, watching  # noqa: E402
 from forte_ros.testing import wait_until  # noqa: E402
 
 LAUNCH = Path(__file__).resolve().parents[1] / 'launch' / 'hardware.launch.py'

@@ -5,7 +5,7 @@ does), then watch their topics and drive them from this process over DDS: the ha
 graph against an emulated sensor and simulated Dynamixel servos on pseudo-terminals
 (lifecycle nodes configured and activated through their change_state services), the
 simulation graph through a Grasp goal, and the ``forte_bringup`` command stopped by SIGINT.
-The probe node, the bag and the emulated devices come from ``graph_probe.py``, shared with
+The probe node, the bag and the emulated devices come from :mod:`forte_bringup.testing`, shared with
 the launch tests (``test_launch_graphs.py``).
 """
 from __future__ import annotations
@@ -16,14 +16,6 @@ from pathlib import Path
 
 import pytest
 import yaml
-from graph_probe import (
-    emulated_devices,
-    force_model_file,
-    interrupt,
-    python_module,
-    watching,
-    write_quiet_bag,
-)
 from robot_model_probe import fake_robot_state_publisher, without_robot_state_publisher
 
 from forte_bringup.bringup import (
@@ -38,6 +30,14 @@ from forte_bringup.robot_model import (
     ROBOT_STATE_PUBLISHER_MISSING,
     expand_gripper,
     robot_state_publisher_available,
+)
+from forte_bringup.testing import (
+    emulated_devices,
+    force_model_file,
+    interrupt,
+    python_module,
+    watching,
+    write_quiet_bag,
 )
 from forte_ros.testing import wait_until
 

@@ -20,7 +20,7 @@ from demo_scenes import EXPECTED, GRAPH_RACES, closed_loop_results, mismatches
 from mcap.reader import make_reader
 
 from forte_bringup.demo import DEFAULT_CONTROLLERS, DEFAULT_OBJECTS
-from forte_bringup.sim_force_model import default_force_model
+from forte_evaluation.sim_force_model import default_force_model
 
 
 @pytest.mark.slow

@@ -1,7 +1,7 @@
 """The ``namespace`` / ``prefix`` arguments and the sim graph's default force model, as both
 front ends build them (issue 27; nothing is started).
 
-- :func:`forte_bringup.graph.graph_namespace` / :func:`~forte_bringup.graph.check_prefix`
+- :func:`forte_ros.contract.graph_namespace` / :func:`forte_ros.contract.check_prefix`
   accept ROS names and refuse the rest with the reason;
 - a namespaced parameter file keys every node block by the namespaced node name (rcl matches
   a ``sim:`` block to ``/sim`` only);
@@ -11,7 +11,7 @@ front ends build them (issue 27; nothing is started).
 - the launch files' nodes (launch_ros, when installed) get the same namespace, remappings,
   parameter files and parameters;
 - perception's force model: the argument, else the YAML, else (sim graph only) the
-  simulated rig's cached model (:func:`forte_bringup.sim_force_model.force_model_path`).
+  simulated rig's cached model (:func:`forte_evaluation.sim_force_model.force_model_path`).
 """
 from __future__ import annotations
 
@@ -23,15 +23,20 @@ import yaml
 from forte_bringup.bringup import Bringup, BringupError
 from forte_bringup.graph import (
     GRAPHS,
-    check_prefix,
-    graph_namespace,
     namespaced_parameter_file,
     params_file,
 )
 from forte_bringup.graph_nodes import force_model_source
 from forte_bringup.robot_model import robot_state_publisher_available
-from forte_bringup.sim_force_model import force_model_path
-from forte_ros.contract import BASE_FRAME, JOINT_NAMES, joint_names, prefixed
+from forte_evaluation.sim_force_model import force_model_path
+from forte_ros.contract import (
+    BASE_FRAME,
+    JOINT_NAMES,
+    check_prefix,
+    graph_namespace,
+    joint_names,
+    prefixed,
+)
 from forte_ros.testing import launch_file_actions, wait_until
 
 LAUNCH = Path(__file__).resolve().parents[1] / 'launch'
@@ -160,32 +165,11 @@ def test_launch_files_build_the_same_namespaced_nodes():
             assert documents[-1][node.node_name]['ros__parameters']['prefix'] == 'right_'
 
 
-@pytest.mark.parametrize('mode', ['sim', 'hardware'])
-def test_force_calibration_launch_runs_in_a_namespace(mode: str):
-    """calibrate_force.launch.py builds on the graph: namespace and prefix reach every node."""
-    pytest.importorskip('launch', reason='launch / launch_ros need a ROS 2 install or the '
-                        'launch kit (../shared/ros2-launch-kit)')
-    pytest.importorskip('launch_ros', reason='launch_ros needs a ROS 2 install or the kit')
-    from launch_ros.actions import Node
-
-    context, actions = launch_actions('calibrate_force.launch.py', mode=mode, namespace='right',
-                                      prefix='right_', sensor_port='/dev/null')
-    nodes = {action.node_executable: action for action in actions if isinstance(action, Node)}
-    expected = {'sim_node'} if mode == 'sim' else {'serial_sensor_node', 'gripper_driver_node'}
-    assert set(nodes) == expected | {'forte_calibrate_force'}
-    for executable, node in nodes.items():
-        node._perform_substitutions(context)
-        assert node.expanded_node_namespace == '/right', executable
-        if executable != 'forte_calibrate_force':
-            documents = [yaml.safe_load(Path(path).read_text())
-                         for path, _ in node._Node__expanded_parameter_arguments]
-            assert documents[-1][node.node_name]['ros__parameters']['prefix'] == 'right_'
-
 @pytest.mark.slow
 def test_forte_bringup_runs_a_namespaced_sim_graph(tmp_path: Path):
     """The bare-machine runner: the sim graph in ``/right`` with ``prefix:=right_``; nothing
     of it in the root namespace, its own clock, prefixed joints and frames."""
-    from graph_probe import watching
+    from forte_bringup.testing import watching
 
     bringup = Bringup('sim', {'namespace': 'right', 'prefix': 'right_',
                               'object': 'raspberry'}, log_dir=tmp_path, echo=None)

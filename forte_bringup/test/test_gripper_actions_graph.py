@@ -38,10 +38,10 @@ if not hasattr(control_actions, 'ParallelGripperCommand'):
                 allow_module_level=True)
 
 import launch  # noqa: E402
-from graph_probe import Watcher, watching  # noqa: E402
 from launch.actions import IncludeLaunchDescription  # noqa: E402
 from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
 
+from forte_bringup.testing import Watcher, watching  # noqa: E402
 from forte_ros.testing import gripper_goal, parallel_gripper_goal, wait_until  # noqa: E402
 
 GripperCommand = control_actions.GripperCommand

@@ -25,7 +25,7 @@ from forte_driver.ros import gripper_driver_parameters as driver_parameters
 from forte_ros import contract
 
 ROOT = Path(__file__).resolve().parents[2]
-URDF_FOLDER = ROOT / 'forte_bringup' / 'urdf'
+URDF_FOLDER = ROOT / 'forte_description' / 'urdf'
 MACRO = URDF_FOLDER / robot_model.MACRO_XACRO
 
 #: A minimal arm: base, one revolute wrist, a flange (tool0); two grippers on the flange.
@@ -283,7 +283,7 @@ def test_robot_state_publisher_is_found_through_the_ament_index(tmp_path):
 
 
 def test_the_urdf_folder_falls_back_to_the_installed_share(tmp_path, monkeypatch):
-    share = tmp_path / 'share' / 'forte_bringup' / 'urdf'
+    share = tmp_path / 'share' / 'forte_description' / 'urdf'
     share.mkdir(parents=True)
     (share / robot_model.GRIPPER_XACRO).write_text('<robot/>')
     assert robot_model.urdf_folder() == URDF_FOLDER  # the source tree first
@@ -302,7 +302,7 @@ def installed() -> bool:
 def test_an_arm_includes_the_installed_macro_with_find(tmp_path):
     """docs/visualization.md's include line: ``$(find forte_bringup)`` (the ament index)."""
     path = tmp_path / 'arm.urdf.xacro'
-    path.write_text(ARM.format(macro='$(find forte_bringup)/urdf/' + robot_model.MACRO_XACRO))
+    path.write_text(ARM.format(macro='$(find forte_description)/urdf/' + robot_model.MACRO_XACRO))
     tree = Tree(robot_model.expand_gripper('', xacro_file=path))
     assert tree.roots == {'arm_base'}
     check_gripper(tree, 'right_', parent='tool0')

@@ -17,7 +17,8 @@ still in flight then is cancelled (an error at teardown), so every test first wa
 each lifecycle node reports the final state the launch asked for (``active``): the launch's
 configure and activate calls have been answered by then.
 
-The probe node and the helpers are in ``graph_probe.py`` (shared with test_bringup.py).
+The probe node and the helpers are in :mod:`forte_bringup.testing` (shared with the graph
+tests of every package).
 Needs launch_pytest and launch_ros (a ROS 2 install, or the launch kit on a bare machine);
 skipped with that reason otherwise.
 """
@@ -34,15 +35,15 @@ launch_pytest = pytest.importorskip('launch_pytest', reason=REASON)
 pytest.importorskip('launch_ros', reason=REASON)
 
 import launch  # noqa: E402
-from graph_probe import (  # noqa: E402
+from launch.actions import IncludeLaunchDescription  # noqa: E402
+from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
+
+from forte_bringup.testing import (  # noqa: E402
     emulated_devices,
     force_model_file,
     watching,
     write_quiet_bag,
 )
-from launch.actions import IncludeLaunchDescription  # noqa: E402
-from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
-
 from forte_ros.testing import wait_until  # noqa: E402
 
 LAUNCH = Path(__file__).resolve().parents[1] / 'launch'

@@ -40,10 +40,10 @@ launch_pytest = pytest.importorskip('launch_pytest', reason=REASON)
 pytest.importorskip('launch_ros', reason=REASON)
 
 import launch  # noqa: E402
-from graph_probe import Watcher, watching  # noqa: E402
 from launch.actions import GroupAction, IncludeLaunchDescription  # noqa: E402
 from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
 
+from forte_bringup.testing import Watcher, watching  # noqa: E402
 from forte_ros.contract import BASE_FRAME, JOINT_NAMES  # noqa: E402
 from forte_ros.testing import wait_until  # noqa: E402
 
@@ -140,7 +140,7 @@ def grasp_in_thread(probe: Watcher, results: dict[str, Any], key: str) -> thread
 
 @pytest.mark.launch(fixture=two_grippers)
 def test_two_namespaced_sim_grippers_share_only_ros_wide_names_and_both_lift():
-    from forte_bringup.sim_force_model import force_model_path
+    from forte_evaluation.sim_force_model import force_model_path
     from forte_msgs.action import Grasp
     from forte_msgs.msg import SimGroundTruth
 

@@ -22,12 +22,12 @@ launch = pytest.importorskip('launch', reason=REASON)
 pytest.importorskip('launch_ros', reason=REASON)
 launch_pytest = pytest.importorskip('launch_pytest', reason=REASON)
 
-from graph_probe import watching, write_quiet_bag  # noqa: E402
 from launch.actions import IncludeLaunchDescription  # noqa: E402
 from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
 from launch_ros.actions import Node  # noqa: E402
 
 from forte_bringup.graph import GRAPHS, overlay_nodes  # noqa: E402
+from forte_bringup.testing import watching, write_quiet_bag  # noqa: E402
 from forte_perception.evaluation.threshold_sweep import write_overlay  # noqa: E402
 from forte_perception.slip.params import SlipParams  # noqa: E402
 from forte_ros.testing import launch_file_actions, launch_file_description, wait_until  # noqa: E402

@@ -13,14 +13,14 @@ from forte_sim.testing import (
     close_to_force,
     hold,
     median_filtered,
-    slip_characterisation_trial,
+    slip_characterization_trial,
 )
 
 FS = 2000
 
 
 def test_paper_slip_detector_sees_the_labelled_slip():
-    _, raw, truth, offset = slip_characterisation_trial('jam_jar', seed=1)
+    _, raw, truth, offset = slip_characterization_trial('jam_jar', seed=1)
     onsets = truth.slip_onset_indices + offset
     assert len(onsets) >= 1
     filtered = median_filtered(raw, raw[:2000])

@@ -129,18 +129,29 @@ def test_rviz_subscribes_to_sim_graph_topics_of_the_right_type(rviz):
 
 
 # ---- installation -------------------------------------------------------------------------
-def installed_share() -> Path | None:
+def installed_share(package: str = 'forte_bringup') -> Path | None:
+    """``share/<package>`` of the first ``AMENT_PREFIX_PATH`` prefix that installed it."""
     for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
-        share = Path(prefix) / 'share' / 'forte_bringup'
+        share = Path(prefix) / 'share' / package
         if prefix and (share / 'package.xml').is_file():
             return share
     return None
 
 
+#: package -> the files of the views it installs (the URDF is forte_description's).
+INSTALLED = {
+    'forte_bringup': ('rviz/forte.rviz', 'plotjuggler/forte.xml',
+                      'config/diagnostics_aggregator.yaml'),
+    'forte_description': ('urdf/forte_gripper.macro.xacro', 'urdf/forte_gripper.urdf.xacro',
+                          'urdf/forte_gripper.urdf', 'meshes/forte_finger.stl',
+                          'rviz/view_gripper.rviz', 'launch/view_gripper.launch.py'),
+}
+
+
 @pytest.mark.skipif(installed_share() is None, reason='forte_bringup is not installed')
-def test_the_files_are_installed():
-    share = installed_share()
-    for path in ('rviz/forte.rviz', 'plotjuggler/forte.xml',
-                 'config/diagnostics_aggregator.yaml', 'urdf/forte_gripper.macro.xacro',
-                 'urdf/forte_gripper.urdf.xacro', 'urdf/forte_gripper.urdf'):
-        assert (share / path).is_file(), f'{path} is not installed (make setup)'
+@pytest.mark.parametrize('package', sorted(INSTALLED))
+def test_the_files_are_installed(package: str):
+    share = installed_share(package)
+    assert share is not None, f'{package} is not installed beside forte_bringup (make setup)'
+    for path in INSTALLED[package]:
+        assert (share / path).is_file(), f'{package}: {path} is not installed (make setup)'

@@ -27,7 +27,6 @@ from pathlib import Path
 
 import pytest
 from geometry_msgs.msg import WrenchStamped
-from graph_probe import force_model_file, watching
 from test_gripper_urdf_macro import Tree
 from view_files import (
     ROBOT_STATE_PUBLISHER_TOPICS,
@@ -43,6 +42,7 @@ from forte_bringup.robot_model import (
     expand_gripper,
     robot_state_publisher_available,
 )
+from forte_bringup.testing import force_model_file, watching
 from forte_bringup.visualization_node import WRENCH_TOPICS
 from forte_ros import contract
 from forte_ros.testing import wait_until

@@ -17,12 +17,12 @@ from forte_control.state_machine.lift_check import (
     LiftCheckParams,
     LiftMonitor,
     OpenGripperLevels,
-    WrenchInput,
     closed_on_object_evidence,
     finger_levels,
     shear_index,
 )
 from forte_control.state_machine.phases import MAX_PROBES
+from forte_control.state_machine.types import WrenchInput
 
 DT = 0.01
 EQUAL = (0.10, 0.06, 0.03, 0.10, 0.06, 0.03)       # both fingers pressed alike

@@ -1,21 +1,16 @@
 """What forte_perception's tests need from pytest, provided by the package itself.
 
-- The shared test helpers (perception_signals.py) importable under importlib mode.
 - DDS isolation before any test module imports rclpy (discovery on loopback, a domain id
   held by this process alone; :mod:`forte_ros.isolation`) and the ``slow`` marker. In a
   clone of the repository ``colcon test`` also finds the workspace's ``pytest.ini`` and
   ``conftest.py`` above this package, but these tests do not rely on them (with a package
   configuration or another layout pytest would not load them).
 """
-import os
-import sys
-
 import pytest
 
 from forte_ros.isolation import isolate_ros_network
 from forte_ros.pytest_plugin import leak_guard, pytest_pycollect_makemodule  # noqa: F401 (see that module)
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 isolate_ros_network()
 
 

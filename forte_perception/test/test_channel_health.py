@@ -7,7 +7,6 @@ usable channels (checked against an oracle written here from the rule, on Welch 
 data_valid is false exactly on the chunks with an invalid value."""
 import numpy as np
 import pytest
-from perception_signals import FS, band_bursts
 
 from forte_perception.channel_health import (
     HEALTH_MASKED,
@@ -25,6 +24,7 @@ from forte_perception.force import ForceModel
 from forte_perception.median import running_median
 from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
 from forte_perception.slip.detector import SlipParams, slip_features_reference
+from forte_perception.testing import FS, band_bursts
 
 CHUNK = 20
 #: The masked-channel oracle below implements the paper mode's documented rule.

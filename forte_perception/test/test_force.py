@@ -3,7 +3,6 @@ import json
 
 import numpy as np
 import pytest
-from perception_signals import FS, random_walk
 from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVR
 
@@ -15,6 +14,7 @@ from forte_perception.force import (
     force_features_reference,
     window_lengths,
 )
+from forte_perception.testing import FS, random_walk
 
 
 def test_window_lengths_and_names():

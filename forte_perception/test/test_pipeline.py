@@ -1,7 +1,6 @@
 """PerceptionPipeline: tare, contact, force and slip in chunks equal the batch functions."""
 import numpy as np
 import pytest
-from perception_signals import FS, random_walk, slip_bursts
 
 from forte_perception.force import ForceModel, force_features
 from forte_perception.median import running_median
@@ -11,6 +10,7 @@ from forte_perception.pipeline import (
     contact_flags,
 )
 from forte_perception.slip.detector import slip_features
+from forte_perception.testing import FS, random_walk, slip_bursts
 
 
 def toy_model():

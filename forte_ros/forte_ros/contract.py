@@ -8,6 +8,8 @@ Channels are in contract order: index ``c`` of every ``(n, 6)`` frame array, eve
 """
 from __future__ import annotations
 
+import re
+
 #: The six differential pressure channels, in contract order (docs/contracts.md).
 CHANNEL_NAMES = ('left_distal', 'left_middle', 'left_root',
                  'right_distal', 'right_middle', 'right_root')
@@ -85,6 +87,61 @@ def prefixed(name: str, prefix: str = '') -> str:
     return prefix + name if name else name
 
 
+#: A token of a ROS namespace: letters, digits, underscores, not starting with a digit.
+_NAMESPACE_TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*')
+#: A TF / joint-name prefix: letters, digits, underscores, inner slashes (e.g. ``gripper2/``).
+_PREFIX = re.compile(r'[A-Za-z0-9_][A-Za-z0-9_/]*')
+
+
+def graph_namespace(text: str) -> str:
+    """The ``namespace`` argument as an absolute ROS namespace.
+
+    Parameters
+    ----------
+    text : str
+        ``''`` (root), ``right``, ``/right``, ``/robots/right/``, ...
+
+    Returns
+    -------
+    str
+        ``''`` for the root namespace, else ``/token[/token...]`` (no trailing slash).
+
+    Raises
+    ------
+    ValueError
+        If a token is not a valid ROS name (letters, digits, underscores; not starting
+        with a digit; no empty token inside).
+    """
+    stripped = text.strip().strip('/')
+    if not stripped:
+        return ''
+    tokens = stripped.split('/')
+    bad = [token for token in tokens if not _NAMESPACE_TOKEN.fullmatch(token)]
+    if bad:
+        raise ValueError(f'namespace {text!r}: {bad[0]!r} is not a valid ROS name (letters, '
+                         'digits and underscores, not starting with a digit)')
+    return '/' + '/'.join(tokens)
+
+
+def check_prefix(prefix: str) -> str:
+    """The TF / joint-name ``prefix`` of a gripper (a graph's ``prefix`` argument), checked.
+
+    Returns
+    -------
+    str
+        ``prefix``, unchanged.
+
+    Raises
+    ------
+    ValueError
+        If it is not empty and not letters, digits, underscores and inner slashes.
+    """
+    if prefix and not _PREFIX.fullmatch(prefix):
+        raise ValueError(f'prefix {prefix!r}: expected letters, digits, underscores (e.g. '
+                         'right_), not starting with a slash')
+    return prefix
+
+
 def joint_names(prefix: str = '') -> tuple[str, str]:
     """The finger joints of ``joint_states`` (:data:`JOINT_NAMES`) with ``prefix``."""
     return tuple(prefixed(name, prefix) for name in JOINT_NAMES)
@@ -94,4 +151,4 @@ __all__ = ['BASE_FRAME', 'CHANNEL_NAMES', 'COUNTS_PER_FULL_SCALE', 'DISTAL', 'FI
            'FINGER_FRAMES', 'FINGER_NAMES', 'JOINT_NAMES', 'LEFT_FINGER_JOINT',
            'LOAD_CELL_FRAME', 'MIDDLE', 'N_CHANNELS', 'PAD_FRAMES', 'QUANTUM',
            'RIGHT_FINGER_JOINT', 'ROOT', 'SAMPLE_PERIOD', 'SAMPLE_RATE', 'VALUE_RANGE',
-           'joint_names', 'prefixed']
+           'check_prefix', 'graph_namespace', 'joint_names', 'prefixed']

@@ -18,6 +18,11 @@ one process per file:
   later modules start clean): DDS participants, spinning threads and 2 kHz node processes
   left by one module once slowed the rclpy tests of the next until they timed out.
 
+Also :func:`pytest_configure`, which registers the markers of :data:`MARKERS` unless already
+known (the workspace's pytest.ini or a plugin), so that a package's tests collect under
+``--strict-markers`` as ``colcon test`` runs them, whether pytest-timeout is installed or not
+(without it, ``timeout`` sets no limit). A conftest that imports it registers them.
+
 No ROS import here: the conftests load this module before isolating the DDS domain.
 """
 from __future__ import annotations
@@ -32,6 +37,11 @@ from pathlib import Path
 
 import pytest
 
+#: ``markers`` lines :func:`pytest_configure` registers unless already known.
+MARKERS = (
+    'slow: takes more than ~20 s',
+    'timeout(seconds): fail the test after this many seconds (pytest-timeout; inert without it)',
+)
 #: How long threads and child processes of a module get to end after its last test [s].
 GRACE = 5.0
 #: Threads of libraries that live for the whole process by design, matched by name prefix:
@@ -42,6 +52,18 @@ PROCESS_WIDE_THREADS = ('asyncio_', 'ThreadPoolExecutor-', 'pytest_timeout')
 #: line: multiprocessing's resource tracker and forkserver, started by the first process pool
 #: and reused by every later one (ending them would break those).
 PROCESS_WIDE_CHILDREN = ('multiprocessing.resource_tracker', 'multiprocessing.forkserver')
+
+
+def _marker_name(line: str) -> str:
+    return line.split(':')[0].split('(')[0].strip()
+
+
+@pytest.hookimpl(trylast=True)  # after the plugins have registered theirs
+def pytest_configure(config: pytest.Config) -> None:
+    known = {_marker_name(line) for line in config.getini('markers')}
+    for line in MARKERS:
+        if _marker_name(line) not in known:
+            config.addinivalue_line('markers', line)
 
 
 @pytest.hookimpl(wrapper=True)

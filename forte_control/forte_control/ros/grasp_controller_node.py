@@ -76,7 +76,6 @@ from forte_control.ros.node_parameters import (
     read_lift_check,
 )
 from forte_control.state_machine import GraspStateMachine
-from forte_control.state_machine.lift_check import WrenchInput
 from forte_control.state_machine.types import (
     ACTIVE_STATES,
     ControlInputs,
@@ -88,6 +87,7 @@ from forte_control.state_machine.types import (
     Outcome,
     PerceptionInput,
     ServoOutput,
+    WrenchInput,
     perception_input,
 )
 from forte_msgs.action import Grasp

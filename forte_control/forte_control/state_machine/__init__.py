@@ -51,9 +51,8 @@ from __future__ import annotations
 from forte_control.state_machine.controller_params import ControllerParams as ControllerParams
 
 # Re-exports (``X as X``): the public names of the package, wherever they are defined.
-from forte_control.state_machine.lift_check import DropDetector as DropDetector
+from forte_control.state_machine.drop_detector import DropDetector as DropDetector
 from forte_control.state_machine.lift_check import LiftCheckParams as LiftCheckParams
-from forte_control.state_machine.lift_check import WrenchInput as WrenchInput
 from forte_control.state_machine.machine import GraspStateMachine as GraspStateMachine
 from forte_control.state_machine.types import ACTIVE_STATES as ACTIVE_STATES
 from forte_control.state_machine.types import PAPER_SLIP_INCREMENT as PAPER_SLIP_INCREMENT
@@ -67,6 +66,7 @@ from forte_control.state_machine.types import JointInput as JointInput
 from forte_control.state_machine.types import Outcome as Outcome
 from forte_control.state_machine.types import PerceptionInput as PerceptionInput
 from forte_control.state_machine.types import ServoOutput as ServoOutput
+from forte_control.state_machine.types import WrenchInput as WrenchInput
 from forte_control.state_machine.types import perception_input as perception_input
 
 __all__ = [

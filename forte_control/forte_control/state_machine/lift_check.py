@@ -1,8 +1,9 @@
 """Does the gripper carry the object? Evidence checks of the grasp state machine (no rclpy).
 
-:class:`DropDetector` watches for a held object's load *disappearing* (LIFTING, HOLDING). It
-cannot see an object that never left the table: the fingers slide up it while FORTE's
-tightenings make force, deformation and joint current rise as in a good grasp.
+:class:`~forte_control.state_machine.drop_detector.DropDetector` watches for a held object's
+load *disappearing* (LIFTING, HOLDING). It cannot see an object that never left the table: the
+fingers slide up it while FORTE's tightenings make force, deformation and joint current rise
+as in a good grasp.
 :class:`LiftMonitor` judges the lift from three physical facts (the physics, the thresholds and
 what they were measured on: docs/control.md, "Lift verification"):
 
@@ -45,17 +46,12 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING
 
 from forte_control.parameters import LIFT_CHECK_PREFIX, range_problems
+from forte_control.state_machine.types import WrenchInput
 from forte_ros.contract import DISTAL, FINGER_CHANNELS, N_CHANNELS, ROOT
 
-if TYPE_CHECKING:  # pragma: no cover - type hints only (state_machine imports this module)
-    from forte_control.state_machine.controller_params import ControllerParams
-    from forte_control.state_machine.types import PerceptionInput
-
-__all__ = ['DropDetector', 'LiftCheckParams', 'LiftMonitor', 'LiftVerdict', 'OpenGripperLevels',
-           'WrenchInput',
+__all__ = ['LiftCheckParams', 'LiftMonitor', 'LiftVerdict', 'OpenGripperLevels',
            'closed_on_object_evidence', 'deformation_level', 'finger_levels']
 
 
@@ -97,14 +93,6 @@ class LiftCheckParams:
         values = {LIFT_CHECK_PREFIX + item.name: getattr(self, item.name)
                   for item in fields(self)}
         return range_problems(values)
-
-
-@dataclass(frozen=True)
-class WrenchInput:
-    """Latest wrist force/torque reading the controller uses (optional input)."""
-
-    stamp: float      # sample time [s]
-    force_z: float    # vertical load the wrist carries, + = pulling the gripper down [N]
 
 
 @dataclass(frozen=True)
@@ -421,49 +409,3 @@ def closed_on_object_evidence(params: LiftCheckParams, command: float, theta: fl
         found.append(f'servo current {current:.3f} A, +{current - free_current:.3f} A over '
                      'free closing')
     return '; '.join(found)
-
-
-@dataclass
-class DropDetector:
-    """Detect a drop from the sensors during LIFTING / HOLDING.
-
-    Two signals are compared with a reference taken while the object is held (the maximum
-    seen since the lift started): the estimated force (when valid) and the deformation level
-    (mean absolute tared filtered value over the 6 channels, when given). A drop is declared
-    when either signal stays below its fraction of the reference for ``confirm_time``;
-    optionally also when both contact flags are false for that long. A detector is armed only
-    when its reference exceeds a minimum, so noise on an empty gripper never "drops".
-    """
-
-    params: ControllerParams   # drop_* fields
-    reference_force: float = 0.0
-    reference_level: float = 0.0
-    low_since: float | None = None
-    reason: str = ''
-
-    def update(self, perception: PerceptionInput, now: float) -> bool:
-        """Feed one fresh, valid perception sample; return True once a drop is confirmed."""
-        p = self.params
-        reasons = []
-        if perception.force_valid and math.isfinite(perception.force):
-            self.reference_force = max(self.reference_force, perception.force)
-            if (self.reference_force >= p.drop_min_reference_force
-                    and perception.force < p.drop_force_fraction * self.reference_force):
-                reasons.append(f'force {perception.force:.3f} N < {p.drop_force_fraction:g} x '
-                               f'{self.reference_force:.3f} N')
-        level = deformation_level(perception.filtered)
-        if level is not None:
-            self.reference_level = max(self.reference_level, level)
-            if (self.reference_level >= p.drop_min_reference_level
-                    and level < p.drop_level_fraction * self.reference_level):
-                reasons.append(f'deformation {level:.4f} < {p.drop_level_fraction:g} x '
-                               f'{self.reference_level:.4f}')
-        if p.drop_on_contact_loss and not any(perception.contact):
-            reasons.append('contact lost on both fingers')
-        if not reasons:
-            self.low_since = None
-            return False
-        if self.low_since is None:
-            self.low_since = now
-        self.reason = '; '.join(reasons)
-        return now - self.low_since >= p.drop_confirm_time

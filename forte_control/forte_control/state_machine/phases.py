@@ -13,8 +13,8 @@ import math
 from collections.abc import Callable
 
 from forte_control.state_machine.controller_params import ControllerParams
+from forte_control.state_machine.drop_detector import DropDetector
 from forte_control.state_machine.lift_check import (
-    DropDetector,
     LiftMonitor,
     closed_on_object_evidence,
     deformation_level,

@@ -6,8 +6,8 @@ from collections import deque
 from dataclasses import dataclass, field
 
 from forte_control.state_machine.controller_params import ControllerParams
+from forte_control.state_machine.drop_detector import DropDetector
 from forte_control.state_machine.lift_check import (
-    DropDetector,
     LiftCheckParams,
     LiftMonitor,
     OpenGripperLevels,

@@ -10,8 +10,6 @@ from dataclasses import dataclass
 from enum import IntEnum, IntFlag
 from typing import Any
 
-from forte_control.state_machine.lift_check import WrenchInput
-
 __all__ = [
     'ACTIVE_STATES', 'PAPER_SLIP_INCREMENT', 'ControlInputs', 'ControlOutputs', 'Controller',
     'FaultFlag', 'GraspGoal', 'GraspState', 'JointInput', 'Outcome', 'PerceptionInput',
@@ -150,6 +148,14 @@ class JointInput:
     theta: float                 # servo angle [rad], 0 = fully closed
     servo_error: bool = False    # hardware error reported by the driver
     effort: float | None = None  # servo current [A] (mean of the servos), None = not reported
+
+
+@dataclass(frozen=True)
+class WrenchInput:
+    """Latest wrist force/torque reading the controller uses (optional input)."""
+
+    stamp: float      # sample time [s]
+    force_z: float    # vertical load the wrist carries, + = pulling the gripper down [N]
 
 
 @dataclass(frozen=True)

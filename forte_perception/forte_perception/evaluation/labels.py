@@ -17,7 +17,7 @@ happened in it:
 
 Flags before ``evaluate_from`` (the detector's warm-up) are not evaluated. The scenes come
 from :mod:`forte_perception.evaluation.scenes` (signal-level generators) and from
-``forte_bringup.slip_dataset`` (the simulator).
+``forte_evaluation.slip_dataset`` (the simulator).
 
 Split (written down before any tuning): every scene belongs to ``'tune'`` or
 ``'held_out'``, by object (a finger profile of the signal generators, an object type of the

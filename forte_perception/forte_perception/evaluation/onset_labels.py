@@ -3,7 +3,7 @@
 In simulation the slip onsets of a recording come from the simulator's ground truth; on a
 robot an operator marks them from a video of the trials (as the paper did) and writes them
 to a CSV file that this module reads and attaches to the recordings
-(:class:`~forte_perception.evaluation.recordings.LabelledRecording`).
+(:class:`~forte_perception.evaluation.labelled_recordings.LabelledRecording`).
 
 Format (UTF-8 text, comma separated):
 
@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from forte_perception.evaluation.recordings import LabelledRecording
+from forte_perception.evaluation.labelled_recordings import LabelledRecording
 
 __all__ = ['LabelError', 'apply_onset_labels', 'load_onset_csv', 'recording_key',
            'write_onset_csv']

@@ -1,10 +1,10 @@
 """The slip metrics: one implementation for every evaluation of the slip detector.
 
-Three evaluations use it: the closed-loop grasp benchmark (:mod:`forte_bringup.evaluate`,
-:mod:`forte_bringup.metrics`: trial-wise scores and latencies of the FORTE trials), labelled
-recordings (:func:`forte_perception.evaluation.recordings.evaluate_slip`,
+Three evaluations use it: the closed-loop grasp benchmark (:mod:`forte_evaluation.evaluate`,
+:mod:`forte_evaluation.metrics`: trial-wise scores and latencies of the FORTE trials), labelled
+recordings (:func:`forte_perception.evaluation.labelled_recordings.evaluate_slip`,
 ``forte_evaluate_slip``) and the labelled slip set of issue 14
-(:mod:`forte_perception.evaluation.benchmark`, ``python -m forte_bringup.slip_benchmark``:
+(:mod:`forte_perception.evaluation.benchmark`, ``python -m forte_evaluation.slip_benchmark``:
 event-level scores per scene, :func:`scene_outcome` and :func:`summarise`).
 
 **Empty cases.** A ratio whose denominator is zero is undefined and is NaN, never an
@@ -13,21 +13,21 @@ precision or recall is undefined, accuracy without trials, a false-flag rate wit
 holding time, a latency percentile without latencies. F1 (:func:`f1_score`) is undefined
 exactly when the recall is (nothing to find); with something to find and nothing found it
 is 0.0. Tables print NaN as ``n/a`` (:func:`format_value`);
-JSON keeps it (``NaN`` in ``forte_bringup.evaluate``'s and ``forte_evaluate_slip``'s
-files, ``null`` in ``forte_bringup.slip_benchmark``'s).
+JSON keeps it (``NaN`` in ``forte_evaluation.evaluate``'s and ``forte_evaluate_slip``'s
+files, ``null`` in ``forte_evaluation.slip_benchmark``'s).
 
 **Onset matching** (:func:`match_onsets`). A true slip onset is caught by the first flag at
 or after it when that flag comes no later than ``onset + max_latency`` (end included) and,
 with ``before_next_onset``, strictly before the next onset; its latency is that flag minus
 the onset. Each caller keeps the rule its published numbers were made with:
 
-- closed loop (``forte_bringup.evaluate.record_from_result``): onset and flag times [s],
+- closed loop (``forte_evaluation.evaluate.record_from_result``): onset and flag times [s],
   ``max_latency`` = :data:`CLOSED_LOOP_MAX_LATENCY` (1.0 s), ``before_next_onset=True``.
   The simulator reports onsets, not slip episodes with an end, so a flag after the next
   onset is taken to answer that onset; the horizon only bounds a match (what is reported is
   the latency distribution, against the paper's "typically below 100 ms") and is the 1 s of
   the published tables.
-- labelled recordings (:func:`forte_perception.evaluation.recordings.evaluate_slip`):
+- labelled recordings (:func:`forte_perception.evaluation.labelled_recordings.evaluate_slip`):
   sample indices, ``max_latency`` from ``--max-latency`` (default :data:`MAX_LATENCY`,
   0.5 s) rounded to samples, ``before_next_onset=True``: recordings are labelled with
   onsets only, as in the closed loop.

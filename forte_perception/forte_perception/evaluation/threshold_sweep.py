@@ -1,15 +1,15 @@
 """Sweep the slip threshold T (and the robust mode's own parameters) over labelled recordings.
 
 The tuning half of the paper's slip characterisation: recordings of lifts that slip (the
-procedure ``forte_bringup.procedures.slip_characterisation`` in simulation, or bags made on
+procedure ``forte_commissioning.slip_characterization`` in simulation, or bags made on
 the robot and labelled with :mod:`forte_perception.evaluation.onset_labels`) are run through
 the slip detector once per parameter setting; every setting is scored against the onsets,
 one setting is recommended by a written rule and written as a parameter YAML overlay for
 the perception node (``params_overlay:=`` of the launch files).
 
 **Scores per setting** (the rules of ``forte_evaluate_slip`` on labelled recordings,
-:mod:`forte_perception.evaluation.recordings`; every trial through a fresh detector, flags
-outside the recording's ``mask`` ignored):
+:mod:`forte_perception.evaluation.labelled_recordings`; every trial through a fresh
+detector, flags outside the recording's ``mask`` ignored):
 
 - an onset is *detected* when :func:`~forte_perception.evaluation.slip_metrics.match_onsets`
   (``before_next_onset=True``) finds a flag in ``[onset, onset + max_latency]`` before the
@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from forte_perception.evaluation.recordings import LabelledRecording
+from forte_perception.evaluation.labelled_recordings import LabelledRecording
 from forte_perception.evaluation.slip_metrics import (
     MAX_LATENCY,
     TrialScores,

@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-from forte_perception.calibration import (
+from forte_perception.force_training import (
     cross_validate,
     file_sha256,
     load_calibration,

@@ -2,6 +2,7 @@
 import numpy as np
 import pytest
 
+from forte_perception.evaluation.labelled_recordings import LabelledRecording
 from forte_perception.evaluation.onset_labels import (
     LabelError,
     apply_onset_labels,
@@ -9,7 +10,6 @@ from forte_perception.evaluation.onset_labels import (
     recording_key,
     write_onset_csv,
 )
-from forte_perception.evaluation.recordings import LabelledRecording
 
 GOOD = """# operator: test, video at 60 Hz
 recording,onset_s,note

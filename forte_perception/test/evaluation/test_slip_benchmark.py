@@ -72,9 +72,8 @@ def test_sequential_mode_gates_with_the_scenes_servo_command():
     """A scene that records its servo command: the sequential runner feeds its changes to
     the servo gate (as the node does from gripper/command), so the ringing of a servo
     step at sample 8000 alarms only where the scene has no command."""
-    from perception_signals import ringing_after_a_step
-
     from forte_perception.evaluation.benchmark import SensorInput, sequential_mode
+    from forte_perception.testing import ringing_after_a_step
 
     frames = ringing_after_a_step()
     filtered = running_median(frames, 11)

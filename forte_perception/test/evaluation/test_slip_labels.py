@@ -1,5 +1,5 @@
-"""The labelled slip scene format (forte_perception.evaluation.labels): intervals, file round trip,
-refusals."""
+"""The labelled slip scene format (forte_perception.evaluation.labels): intervals, file
+round trip, refusals."""
 import numpy as np
 import pytest
 

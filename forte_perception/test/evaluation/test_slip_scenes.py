@@ -1,5 +1,5 @@
-"""The signal-level slip scenes (forte_perception.evaluation.scenes) produce what their labels say:
-noise levels, the 11-bit grid, stick-slip power in 10-50 Hz, one finger only for
+"""The signal-level slip scenes (forte_perception.evaluation.scenes) produce what their
+labels say: noise levels, the 11-bit grid, stick-slip power in 10-50 Hz, one finger only for
 leading-finger slip, smooth monotone gross slip, distractors in their frequency ranges;
 the split is disjoint; scenes are determined by their seed."""
 import numpy as np

@@ -7,12 +7,6 @@ import numpy as np
 import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from perception_signals import (
-    random_walk,
-    ringing_after_a_step,
-    slip_bursts,
-    tightening_then_slip,
-)
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -25,6 +19,12 @@ from forte_perception.force import ForceModel
 from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
 from forte_perception.ros.perception_node import PerceptionNode
 from forte_perception.slip.params import SlipParams
+from forte_perception.testing import (
+    random_walk,
+    ringing_after_a_step,
+    slip_bursts,
+    tightening_then_slip,
+)
 from forte_ros.contract import CHANNEL_NAMES
 from forte_ros.qos import SENSOR_INFO
 from forte_ros.sensor_identity import SIMULATED_SENSOR, SensorIdentity

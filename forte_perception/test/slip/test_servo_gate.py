@@ -3,11 +3,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from perception_signals import ringing_after_a_step, tightening_then_slip
 
 from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
 from forte_perception.slip.params import SlipParams
 from forte_perception.slip.servo_gate import ServoGate
+from forte_perception.testing import ringing_after_a_step, tightening_then_slip
 
 
 def test_samples_after_a_change_are_gated_for_hold_samples():

@@ -2,7 +2,6 @@
 streaming bit for bit, and the numerically hard cases."""
 import numpy as np
 import pytest
-from perception_signals import FS, quantise, random_walk, slip_bursts
 from scipy import signal
 
 from forte_perception.slip.detector import (
@@ -15,6 +14,7 @@ from forte_perception.slip.detector import (
     slip_features,
     slip_features_reference,
 )
+from forte_perception.testing import FS, quantise, random_walk, slip_bursts
 
 TOL_DB = 1e-6
 #: This module tests the paper's algorithm (the derivation in forte_perception.slip.detector).

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from perception_signals import tightening
 
 from forte_perception.slip.sequential import SequentialDetector, SequentialParams
+from forte_perception.testing import tightening
 from forte_ros.contract import QUANTUM
 
 FS = 2000.0

@@ -1,0 +1,1 @@
+"""Putting a FORTE gripper into service: commissioning, force calibration, slip tuning."""

@@ -1,0 +1,1 @@
+"""The procedures' nodes: commissioning, force calibration rig, slip lifts."""

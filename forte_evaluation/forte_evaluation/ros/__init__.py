@@ -1,0 +1,1 @@
+"""The evaluation's ROS shell: bags of the slip set (rclpy serialization)."""
