@@ -28,7 +28,7 @@ test-firmware:
 
 ## lint: ruff over every Python package
 lint:
-	@$(ENV) && cd $(ROOT) && ruff check $$(ls -d forte_ros forte_msgs forte_driver forte_sim forte_perception forte_control forte_bringup hardware benchmarks tools conftest.py 2>/dev/null) && echo "[lint] ruff: clean"
+	@$(ENV) && cd $(ROOT) && ruff check $$(ls -d forte_ros forte_msgs forte_description forte_driver forte_sim forte_perception forte_control forte_evaluation forte_bringup forte_commissioning hardware benchmarks tools conftest.py 2>/dev/null) && echo "[lint] ruff: clean"
 
 ## demo: the simulated FORTE scene with the full graph (see README)
 demo: setup
@@ -44,7 +44,11 @@ faults: setup
 
 ## evaluate: the paper's evaluation reproduced in simulation (EVAL_ARGS=--quick for a subset)
 evaluate: setup
-	@$(ENV) && cd $(ROOT) && python -m forte_bringup.evaluate $(EVAL_ARGS)
+	@$(ENV) && cd $(ROOT) && python -m forte_evaluation.evaluate $(EVAL_ARGS)
+
+## results: evaluate, slip benchmark (robust, paper), then docs/results.md from their JSON (EVAL_ARGS as for evaluate)
+results: setup
+	@$(ENV) && cd $(ROOT) && python -m forte_evaluation.evaluate $(EVAL_ARGS) && python -m forte_evaluation.slip_benchmark --mode robust && python -m forte_evaluation.slip_benchmark --mode paper && python tools/results_page.py
 
 clean:
 	rm -rf $(ROOT)/build $(ROOT)/install $(ROOT)/.venv $(ROOT)/log

@@ -13,12 +13,14 @@ Jazzy"), rebuilt here without a ROS install, in a scratch folder (a temporary on
    CLI) and its two interface packages built into a prefix, and a ``setup.bash`` that sets
    what /opt/ros/jazzy/setup.bash sets;
 2. ``rosdep install --from-paths src``: every key of every ``<depend>``, ``<exec_depend>``,
-   ``<test_depend>`` (and build keys) of the seven package.xml files, mapped to what provides
+   ``<test_depend>`` (and build keys) of the ten package.xml files, mapped to what provides
    it here (:data:`PIP_KEYS`, :data:`BASE_KEYS`, :data:`KIT_SOURCE_KEYS`), and only those: a
    Python library no package.xml declares is not installed. Then the README's ``pip`` line
    for the libraries without a rosdep key (rosbags, mcap, mcap-ros2-support);
-3. the tracked and new files of this working tree copied to ``ws/src/forte`` (a clone);
-4. in ``ws``: ``colcon build --symlink-install``, ``colcon test``, ``colcon test-result
+3. ``colcon build --packages-up-to forte_description`` in a workspace of its own: that package
+   alone is built, and ``xacro`` expands its installed macro (the arm integrator's view);
+4. the tracked and new files of this working tree copied to ``ws/src/forte`` (a clone);
+5. in ``ws``: ``colcon build --symlink-install``, ``colcon test``, ``colcon test-result
    --verbose``; then the counts per package from the test reports.
 
 Exits non-zero on any failed step, any test error or failure, a declared key this script
@@ -44,8 +46,9 @@ import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ('forte_ros', 'forte_msgs', 'forte_driver', 'forte_sim', 'forte_perception',
-            'forte_control', 'forte_bringup')
+PACKAGES = ('forte_ros', 'forte_msgs', 'forte_description', 'forte_driver', 'forte_sim',
+            'forte_perception', 'forte_control', 'forte_evaluation', 'forte_bringup',
+            'forte_commissioning')
 REQUIREMENTS = ROOT / 'requirements'
 
 #: Changed whenever build_stand_in changes what it makes (a kept stand-in is then rebuilt).
@@ -84,6 +87,10 @@ KIT_SOURCE_KEYS = {'control_msgs', 'composition_interfaces'}
 UNAVAILABLE_KEYS = {
     'ament_flake8': 'no wheel on the package index; no FORTE test imports it',
     'ament_pep257': 'no wheel on the package index; no FORTE test imports it',
+    'robot_state_publisher': 'C++, no wheel; view_gripper.launch.py and the graphs start it '
+                             'where it is installed (the graphs say so in one line if not)',
+    'joint_state_publisher_gui': 'a Qt GUI, no wheel; only view_gripper.launch.py starts it',
+    'rviz2': 'C++ and Qt, no wheel; only view_gripper.launch.py starts it',
 }
 
 #: README's pip line: libraries with no rosdep key (test_declared_dependencies.PIP_ONLY).
@@ -113,7 +120,7 @@ def find_python(requested: str | None) -> str:
 
 
 def declared_keys() -> dict[str, set[str]]:
-    """Every dependency key of the seven package.xml files -> the packages declaring it."""
+    """Every dependency key of the ten package.xml files -> the packages declaring it."""
     keys: dict[str, set[str]] = {}
     tags = ('depend', 'exec_depend', 'test_depend', 'build_depend', 'buildtool_depend',
             'build_export_depend')
@@ -298,13 +305,20 @@ def junit_counts(build: Path) -> dict[str, dict[str, int]]:
     return counts
 
 
-def colcon_build_and_test(ws: Path, setup: Path, logs: Path, test_args: list[str]) -> bool:
-    """The ROS user's three commands in ``ws`` over ``setup``; True if colcon saw no failure."""
-    shell = f'set -eo pipefail; source {setup}; cd {ws}; '
+def user_environment() -> dict[str, str]:
+    """This process's environment without its venv and workspaces: a login shell's PATH,
+    then ``setup.bash`` of the stand-in sets the rest."""
     env = {k: v for k, v in os.environ.items()
            if k not in ('VIRTUAL_ENV', 'PYTHONPATH', 'AMENT_PREFIX_PATH', 'CMAKE_PREFIX_PATH',
                         'COLCON_PREFIX_PATH', 'LD_LIBRARY_PATH')}
-    env['PATH'] = '/usr/local/bin:/usr/bin:/bin'  # a login shell's, then setup.bash
+    env['PATH'] = '/usr/local/bin:/usr/bin:/bin'
+    return env
+
+
+def colcon_build_and_test(ws: Path, setup: Path, logs: Path, test_args: list[str]) -> bool:
+    """The ROS user's three commands in ``ws`` over ``setup``; True if colcon saw no failure."""
+    shell = f'set -eo pipefail; source {setup}; cd {ws}; '
+    env = user_environment()
     for name in ('build.log', 'test.log', 'test_result.log'):  # this run's only (a kept
         (logs / name).unlink(missing_ok=True)                  # --work showed old results)
     begin = time.monotonic()
@@ -321,6 +335,29 @@ def colcon_build_and_test(ws: Path, setup: Path, logs: Path, test_args: list[str
                  logs / 'test_result.log', env=env, check=False)
     print((logs / 'test_result.log').read_text().split('\n', 2)[-1][-20000:], flush=True)
     return tested.returncode == 0 and result.returncode == 0
+
+
+def description_alone(work: Path, setup: Path, logs: Path) -> bool:
+    """``colcon build --packages-up-to forte_description`` in a workspace of its own builds that
+    package alone (no Python package of FORTE), and ``xacro`` expands its installed macro."""
+    ws = work / 'ws_description'
+    shutil.rmtree(ws, ignore_errors=True)
+    copy_clone(ws / 'src' / 'forte')
+    shell = f'set -eo pipefail; source {setup}; cd {ws}; '
+    env = user_environment()
+    run(['bash', '-c', shell + 'colcon build --packages-up-to forte_description '
+         '--event-handlers console_direct- summary+'], logs / 'build_description.log', env=env)
+    built = sorted(path.name for path in (ws / 'install').iterdir() if path.is_dir())
+    xacro_file = ws / 'install/forte_description/share/forte_description/urdf'
+    expanded = run(['bash', '-c', shell + 'source install/setup.bash; xacro '
+                    f'{xacro_file}/forte_gripper.urdf.xacro prefix:=left_'],
+                   logs / 'xacro_description.log', env=env, check=False)
+    text = (logs / 'xacro_description.log').read_text()
+    alone = built == ['forte_description']
+    expands = expanded.returncode == 0 and 'left_forte_base_link' in text
+    say(f'colcon build --packages-up-to forte_description: built {built}; xacro '
+        f'{"expands" if expands else "FAILED on"} the installed macro (prefix left_)')
+    return alone and expands
 
 
 def report(counts: dict[str, dict[str, int]], selected: bool) -> bool:
@@ -378,6 +415,8 @@ def main(argv: list[str]) -> int:
         for problem in problems:
             say(f'ERROR: {problem}')
         if problems:
+            return 1
+        if not description_alone(work, setup, logs):
             return 1
         ws = work / 'ws'
         copy_clone(ws / 'src' / 'forte')

@@ -13,7 +13,7 @@
 #   shared/ros2-launch-kit) it also gets launch, launch_ros, launch_pytest, the ros2 command
 #   line, and the composition_interfaces and control_msgs interfaces, built into
 #   .venv/opt/ros2_launch_kit; the kit is remembered, later runs need not name it again.
-# Then `colcon build --symlink-install` builds the seven FORTE packages into install/ (the
+# Then `colcon build --symlink-install` builds the ten FORTE packages into install/ (the
 # same command a ROS user types); `source install/setup.bash` gives the whole environment.
 #
 # Idempotent: every step writes a stamp holding the hash of its inputs and is skipped when
@@ -24,7 +24,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 venv="$root/.venv"
 stamps="$venv/.forte-stamps"
 kit_prefix="$venv/opt/ros2_launch_kit"
-packages=(forte_ros forte_msgs forte_driver forte_sim forte_perception forte_control forte_bringup)
+packages=(forte_ros forte_msgs forte_description forte_driver forte_sim forte_perception forte_control forte_evaluation forte_bringup forte_commissioning)
 
 say() { printf '[setup] %s\n' "$*"; }
 die() { printf '[setup] ERROR: %s\n' "$*" >&2; exit 1; }
@@ -207,7 +207,7 @@ fi
   # shellcheck disable=SC1091
   source "$root/install/setup.bash"
   set -u
-  python -c 'import rclpy, forte_msgs.msg, forte_msgs.srv, forte_msgs.action, forte_ros, forte_driver, forte_sim, forte_perception, forte_control, forte_bringup' \
+  python -c 'import rclpy, forte_msgs.msg, forte_msgs.srv, forte_msgs.action, forte_ros, forte_driver, forte_sim, forte_perception, forte_control, forte_evaluation, forte_bringup, forte_commissioning' \
     || die "rclpy + the FORTE packages do not import after setup"
   if [ -d "$kit_prefix" ]; then
     python -c 'import launch, launch_ros, launch_pytest, control_msgs.action' \

@@ -4,10 +4,13 @@
   code (Python by its syntax tree; C by its top-level function bodies).
 - Import direction: a package imports only the packages below it in the graph of
   docs/architecture.md (forte_ros <- forte_msgs <- forte_driver <- forte_sim; forte_msgs <-
-  forte_perception, forte_control; all <- forte_bringup), at run time and in its tests.
-- Pure core, thin shell: rclpy and ROS message packages only in each core package's
-  ``ros/`` folder; the pure modules of forte_ros (contract, parameter table, isolation)
-  import nothing of ROS.
+  forte_perception, forte_control; those <- forte_evaluation <- forte_bringup <-
+  forte_commissioning), at run time and in its tests.
+- No import circle: no module imports, through any chain of imports (deferred and
+  type-checking imports included), a module that imports it back.
+- Pure core, thin shell: rclpy and ROS message packages only in the ``ros/`` folder of every
+  package but forte_bringup (whose launch files and runner are the shell); the pure modules
+  of forte_ros (contract, parameter table, isolation) import nothing of ROS.
 """
 from __future__ import annotations
 
@@ -30,8 +33,13 @@ ALLOWED_IMPORTS = {
     'forte_sim': {'forte_sim', 'forte_driver', 'forte_msgs', 'forte_ros'},
     'forte_perception': {'forte_perception', 'forte_msgs', 'forte_ros'},
     'forte_control': {'forte_control', 'forte_msgs', 'forte_ros'},
-    'forte_bringup': {'forte_bringup', 'forte_driver', 'forte_sim', 'forte_perception',
-                      'forte_control', 'forte_msgs', 'forte_ros'},
+    'forte_evaluation': {'forte_evaluation', 'forte_driver', 'forte_sim', 'forte_perception',
+                         'forte_control', 'forte_msgs', 'forte_ros'},
+    'forte_bringup': {'forte_bringup', 'forte_evaluation', 'forte_driver', 'forte_sim',
+                      'forte_perception', 'forte_control', 'forte_msgs', 'forte_ros'},
+    'forte_commissioning': {'forte_commissioning', 'forte_bringup', 'forte_evaluation',
+                            'forte_driver', 'forte_sim', 'forte_perception', 'forte_control',
+                            'forte_msgs', 'forte_ros'},
 }
 PROJECT_MODULES = set(ALLOWED_IMPORTS)
 #: Import names that make a module part of the ROS shell. forte_ros counts as ROS except its
@@ -42,8 +50,9 @@ ROS_IMPORTS = re.compile(r'^(rclpy|launch|launch_ros|rosidl_\w+|rcl_interfaces|\
 #: shape, the DDS isolation run before rclpy loads, the sensor identity check).
 PURE_FORTE_ROS = ('forte_ros.contract', 'forte_ros.parameter_table', 'forte_ros.isolation',
                   'forte_ros.sensor_identity')
-#: Core packages: pure Python outside their ``ros/`` folder, the ROS shell.
-CORE_PACKAGES = ('forte_driver', 'forte_sim', 'forte_perception', 'forte_control')
+#: Packages that are pure Python outside their ``ros/`` folder, the ROS shell.
+CORE_PACKAGES = ('forte_driver', 'forte_sim', 'forte_perception', 'forte_control',
+                 'forte_evaluation', 'forte_commissioning')
 #: The folder of a core package that holds its ROS shell (nodes and their parts).
 SHELL_FOLDER = 'ros'
 
@@ -140,6 +149,84 @@ def test_imports_follow_the_package_graph(package):
         wrong += [f'{path.relative_to(ROOT)} imports {name}' for name in sorted(forbidden)]
     assert not wrong, ('these imports go against docs/architecture.md\'s package graph:\n'
                        + '\n'.join(wrong))
+
+
+def module_files() -> dict[str, Path]:
+    """Dotted module name -> source file, for every tracked module of the packages' own
+    folders (``forte_x/forte_x/...``; a package's ``__init__.py`` under the package's name)."""
+    modules = {}
+    for package in sorted(PROJECT_MODULES):
+        for path in tracked(f'{package}/{package}/*.py'):
+            parts = path.relative_to(ROOT / package).with_suffix('').parts
+            name = '.'.join(parts[:-1] if parts[-1] == '__init__' else parts)
+            modules[name] = path
+    return modules
+
+
+def import_graph(modules: dict[str, Path]) -> dict[str, set[str]]:
+    """module -> the project modules it imports, deferred and type-checking imports included.
+
+    ``from a.b import c`` names the module ``a.b.c`` when there is one, else ``a.b``; a
+    package's ``__init__`` that only the import machinery runs on the way to a submodule is
+    not an edge (it is not what the importing code asked for)."""
+    graph = {}
+    for name, path in modules.items():
+        edges = set()
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.Import):
+                edges.update(alias.name for alias in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                for alias in node.names:
+                    submodule = f'{node.module}.{alias.name}'
+                    edges.add(submodule if submodule in modules else node.module)
+        graph[name] = {edge for edge in edges if edge in modules and edge != name}
+    return graph
+
+
+def circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found = []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        for target in sorted(graph.get(node, ())):
+            if target not in index:
+                visit(target)
+                low[node] = min(low[node], low[target])
+            elif target in stack:
+                low[node] = min(low[node], index[target])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                member = stack.pop()
+                component.append(member)
+                if member == node:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    return found
+
+
+def test_no_import_circle_anywhere():
+    graph = import_graph(module_files())
+    assert len(graph) > 100 and sum(map(len, graph.values())) > 200  # it read the tree
+    found = circles(graph)
+    assert not found, 'these modules import each other in a circle:\n' + '\n'.join(
+        ' <-> '.join(component) for component in found)
+
+
+def test_the_circle_check_sees_a_circle():
+    graph = {'a': {'b'}, 'b': {'c'}, 'c': {'a'}, 'd': {'a'}, 'e': set()}
+    assert circles(graph) == [['a', 'b', 'c']]
+    assert circles({'a': {'b'}, 'b': set()}) == []
 
 
 def ros_imports(path: Path) -> list[str]:
