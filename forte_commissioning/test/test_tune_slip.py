@@ -10,21 +10,15 @@ from forte_perception.evaluation.labelled_recordings import (
 )
 from forte_perception.evaluation.onset_labels import write_onset_csv
 from forte_perception.evaluation.threshold_sweep import params_from_overlay
-from forte_perception.testing import FS, slip_bursts
+from forte_perception.testing import (
+    FS,
+    SWEEP_DISTRACTORS,
+    SWEEP_SAMPLES,
+    SWEEP_SLIPS,
+    known_answer_recording,
+)
 
-N = 12000
-SLIPS = (3000, 9000)         # labelled: strong rise (1000 dB/s)
-DISTRACTORS = (6000,)        # unlabelled: weak rise (60 dB/s)
-
-
-def known_answer_recording() -> LabelledRecording:
-    """Two trials; trial 0 has the slips and the distractor, trial 1 only a distractor."""
-    strong = slip_bursts(N, seed=1, onsets=SLIPS, growth_db_per_s=1000.0)
-    weak = slip_bursts(N, seed=2, onsets=DISTRACTORS, growth_db_per_s=60.0, noise=0.0)
-    quiet_trial = slip_bursts(N, seed=3, onsets=DISTRACTORS, growth_db_per_s=60.0)
-    frames = np.concatenate([strong + weak, quiet_trial]) + 0.1
-    trial = np.repeat([0, 1], N)
-    return LabelledRecording(frames, FS, np.array(SLIPS), trial, name='known.npz')
+N, SLIPS, DISTRACTORS = SWEEP_SAMPLES, SWEEP_SLIPS, SWEEP_DISTRACTORS
 
 
 

@@ -6,8 +6,9 @@ import numpy as np
 from forte_ros.contract import QUANTUM
 from forte_ros.contract import SAMPLE_RATE as FS  # [Hz], the name the signal tests use
 
-__all__ = ['FS', 'band_bursts', 'quantise', 'random_walk', 'ringing_after_a_step', 'slip_bursts',
-           'tightening', 'tightening_then_slip']
+__all__ = ['FS', 'SWEEP_DISTRACTORS', 'SWEEP_SAMPLES', 'SWEEP_SLIPS', 'band_bursts',
+           'known_answer_recording', 'quantise', 'random_walk', 'ringing_after_a_step',
+           'slip_bursts', 'tightening', 'tightening_then_slip']
 
 
 def random_walk(n: int, seed: int = 0, scale: float = 1e-3) -> np.ndarray:
@@ -95,3 +96,27 @@ def tightening_then_slip(n: int = 12000, at: int = 8000, slip_at: int | None = 8
         t = np.arange(n - slip_at) / FS
         lsb[slip_at:, :3] += (amplitude * np.sin(2 * np.pi * 25.0 * t))[:, None]
     return np.round(lsb) * QUANTUM
+
+
+#: The known-answer recording of the threshold-sweep tests: samples per trial, labelled
+#: onsets (strong rises, 1000 dB/s) and unlabelled distractors (weak rises, 60 dB/s).
+SWEEP_SAMPLES = 12000
+SWEEP_SLIPS = (3000, 9000)
+SWEEP_DISTRACTORS = (6000,)
+
+
+def known_answer_recording():
+    """Two trials of :data:`SWEEP_SAMPLES`: trial 0 has the labelled slips and a distractor,
+    trial 1 only a distractor (a ``LabelledRecording`` named ``known.npz``). A threshold
+    between the two kinds of rise finds the slips and nothing else."""
+    from forte_perception.evaluation.labelled_recordings import LabelledRecording
+
+    strong = slip_bursts(SWEEP_SAMPLES, seed=1, onsets=SWEEP_SLIPS, growth_db_per_s=1000.0)
+    weak = slip_bursts(SWEEP_SAMPLES, seed=2, onsets=SWEEP_DISTRACTORS, growth_db_per_s=60.0,
+                       noise=0.0)
+    quiet_trial = slip_bursts(SWEEP_SAMPLES, seed=3, onsets=SWEEP_DISTRACTORS,
+                              growth_db_per_s=60.0)
+    frames = np.concatenate([strong + weak, quiet_trial]) + 0.1
+    trial = np.repeat([0, 1], SWEEP_SAMPLES)
+    return LabelledRecording(frames, FS, np.array(SWEEP_SLIPS), trial, name='known.npz')
+

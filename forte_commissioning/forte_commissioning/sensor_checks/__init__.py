@@ -1,7 +1,8 @@
 """Sensor commissioning of a freshly assembled FORTE gripper, pure (no rclpy).
 
 A lab runs it once on a new or repaired gripper: the procedure (``forte_commission``,
-:mod:`forte_commissioning.ros.commission_node`) records the raw readings of a fixed protocol and this package judges them:
+:mod:`forte_commissioning.ros.commission_node`) records the raw readings of a fixed protocol
+and this package judges them:
 
 - :mod:`.run_record`: what the procedure recorded (readings with their sequence numbers,
   the phases of the protocol, the link counters of the driver); saved as ``.npz``;
