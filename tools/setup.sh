@@ -193,9 +193,15 @@ if ! stamp_ok workspace "$ws_hash" || [ ! -f "$root/install/setup.bash" ]; then
     [ -n "$colcon_bin" ] || die "colcon not found"
     cd "$root"
     mkdir -p "$root/log"
-    "$colcon_bin" build --symlink-install --base-paths "${packages[@]}" \
-      --cmake-args -DBUILD_TESTING=ON "-DPython3_EXECUTABLE=$venv/bin/python" \
-      --event-handlers console_direct- summary+ > "$root/log/forte_build.log" 2>&1 \
+    build() {
+      "$colcon_bin" build --symlink-install --base-paths "${packages[@]}" \
+        --cmake-args -DBUILD_TESTING=ON "-DPython3_EXECUTABLE=$venv/bin/python" \
+        --event-handlers console_direct- summary+ > "$root/log/forte_build.log" 2>&1
+    }
+    # a file that moved to another package leaves a stale link in build/ that stops
+    # colcon's symlink install ("can't copy ... doesn't exist"): build once more from scratch
+    build || { say "colcon build failed; again from a clean build/ and install/"
+               rm -rf "$root/build" "$root/install"; build; } \
       || { tail -40 "$root/log/forte_build.log" >&2; exit 1; }
   ) || die "colcon build failed (log: log/forte_build.log, log/latest_build/)"
   stamp_set workspace "$ws_hash"

@@ -84,6 +84,7 @@ def peer():
         process.wait(timeout=10)
     except subprocess.TimeoutExpired:
         process.kill()
+        process.wait()  # reaped: a killed child left unwaited is still this test's child
 
 
 @pytest.fixture

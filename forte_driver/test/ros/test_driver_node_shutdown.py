@@ -1,9 +1,10 @@
 """The forte_driver node executables stop cleanly on SIGINT / SIGTERM and survive invalid
 lifecycle requests.
 
-Each node runs as its real console script in its own process, without hardware: sim_node
-as is, serial_sensor_node on an emulated sensor board behind a pty (in this process),
-gripper_driver_node on the simulated XM430-W350 pair (its own process, on a pty). The tests
+Each node runs as its real console script in its own process, on the driver's fake
+hardware: serial_sensor_node on an emulated sensor board behind a pty (in this process),
+gripper_driver_node on the simulated XM430-W350 pair (its own process, on a pty). (sim_node's
+own shutdown test is forte_sim's, test_sim_node_shutdown.py.) The tests
 let it publish, stop it with a signal and check the exit code, the time to exit, that no
 traceback was printed, and that the lifecycle shutdown transition did its job on the
 device: the sensor was told to STOP, the servos' torque is as ``release_on_shutdown`` says.
@@ -42,38 +43,6 @@ def wait_publishing(probe: Probe, process: NodeProcess, topic: str, at_least: in
     before = probe.counts[topic]
     assert wait_until(lambda: probe.counts[topic] >= before + at_least, 40.0), (
         f'nothing on {topic}:\n{process.output}')
-
-
-# ---- sim_node ------------------------------------------------------------------------------
-
-@pytest.mark.parametrize('signum, factor', [(signal.SIGINT, 1.0), (signal.SIGTERM, 1.0),
-                                            (signal.SIGINT, 0.0)],
-                         ids=['SIGINT', 'SIGTERM', 'SIGINT-as-fast-as-possible'])
-def test_sim_node_stops_cleanly(probe, signum, factor):
-    with NodeProcess(['sim_node', *ros_args(real_time_factor=factor)]) as process:
-        wait_publishing(probe, process, 'tactile/frames')
-        wait_publishing(probe, process, 'joint_states')
-        process.stop_cleanly(signum, within=STOP_TIMEOUT)
-    assert 'shut down from active: production stopped' in process.output
-
-
-def test_sim_node_refuses_invalid_transitions_and_keeps_publishing(probe):
-    with NodeProcess(['sim_node', *ros_args(autostart=False)]) as process:
-        assert wait_until(lambda: probe.state('forte_sim') == 'unconfigured', 40.0), \
-            process.output
-        assert probe.change_state('forte_sim', Transition.TRANSITION_ACTIVATE) is False
-        assert probe.change_state('forte_sim', Transition.TRANSITION_CONFIGURE) is True
-        # the second configure of a stale launch on the same domain
-        assert probe.change_state('forte_sim', Transition.TRANSITION_CONFIGURE) is False
-        assert probe.change_state('forte_sim', Transition.TRANSITION_ACTIVATE) is True
-        wait_publishing(probe, process, 'tactile/frames')
-        assert probe.change_state('forte_sim', Transition.TRANSITION_CONFIGURE) is False
-        assert probe.change_state('forte_sim', label='cleanup') is False  # only from inactive
-        assert probe.state('forte_sim') == 'active'
-        wait_publishing(probe, process, 'tactile/frames')
-        process.stop_cleanly(signal.SIGINT, within=STOP_TIMEOUT)
-    assert process.output.count('refused in state') == 4
-    assert 'shut down from active' in process.output
 
 
 # ---- serial_sensor_node ----------------------------------------------------------------------
