@@ -73,8 +73,12 @@ def filled(message_type: type, seed: int = 1):
 
 
 @pytest.fixture(scope='module')
-def peer():
-    """Start the echo peer in its own process; it inherits this test's isolated ROS domain."""
+def peer(leak_guard):
+    """Start the echo peer in its own process; it inherits this test's isolated ROS domain.
+
+    Asks for ``leak_guard`` so that it is stopped before the guard looks for what the module
+    left running: pytest 7 (Ubuntu 24.04's, under ``colcon test``) tears module fixtures of
+    equal rank down in setup order, pytest 8 in reverse; a dependency orders both."""
     process = subprocess.Popen(
         [sys.executable, str(PEER)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     assert process.stdout.readline().strip() == 'ready'
