@@ -294,6 +294,12 @@ class Probe(SpinningGraph):
 
         self.node.create_subscription(message_type, topic, on_message, qos)
 
+    def wait_for_messages(self, topic: str, at_least: int, timeout: float) -> bool:
+        """True once ``at_least`` more messages arrived on the counted ``topic`` than when
+        called, False after ``timeout`` [s]."""
+        before = self.counts[topic]
+        return wait_until(lambda: self.counts[topic] >= before + at_least, timeout)
+
     def call(self, service_type: type, name: str, request: Any,
              timeout: float = 10.0) -> Any | None:
         """Call a service; the response, or None if none answered within ``timeout``."""

@@ -39,8 +39,7 @@ def probe():
 
 def wait_publishing(probe: Probe, process: NodeProcess, topic: str = 'runner_test/count',
                     at_least: int = 20) -> None:
-    before = probe.counts[topic]
-    assert wait_until(lambda: probe.counts[topic] >= before + at_least, 30.0), (
+    assert probe.wait_for_messages(topic, at_least, 30.0), (
         f'no messages on {topic}:\n{process.output}')
 
 

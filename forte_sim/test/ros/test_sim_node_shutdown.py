@@ -29,9 +29,7 @@ def probe():
 
 
 def wait_publishing(probe: Probe, process: NodeProcess, topic: str, at_least: int = 10) -> None:
-    before = probe.counts[topic]
-    assert wait_until(lambda: probe.counts[topic] >= before + at_least, 40.0), (
-        f'nothing on {topic}:\n{process.output}')
+    assert probe.wait_for_messages(topic, at_least, 40.0), f'nothing on {topic}:\n{process.output}'
 
 
 @pytest.mark.parametrize('signum, factor', [(signal.SIGINT, 1.0), (signal.SIGTERM, 1.0),
