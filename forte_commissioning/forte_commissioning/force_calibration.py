@@ -42,6 +42,12 @@ class RigError(RuntimeError):
 #: speed again (harmless to a servo already moving there), so a command published before
 #: the gripper's subscription matched, or lost, does not leave the gripper standing open.
 RESEND_SECONDS = 0.5
+#: A joint report this far past the position at a command, in the commanded direction, is
+#: the gripper following it [rad] (3 steps of a 4096-step servo turn; above its jitter).
+MOTION_TOLERANCE = 0.005
+#: The gripper must follow a trial's command within this much recording [s]: longer than
+#: the frames a loaded machine or a simulator ahead of real time holds in its queues.
+MOTION_TIMEOUT = 10.0
 
 
 class DeviceMismatch(RigError):
@@ -270,6 +276,14 @@ class ForceCalibration:
     async def run_trial(self, plan: TrialPlan, theta: float) -> str:
         """Record one trial and keep it; returns '' or why it was dropped.
 
+        The trial's clock is the gripper's, not the procedure's: the hold is counted from
+        the sample at which the joint left the open pose, the release from the sample at
+        which it left the hold, and the tare is the ``tare_samples`` just before the
+        squeeze began (:meth:`_motion_start`). A command delivered late (a loaded machine,
+        a simulator ahead of real time, a slow bus) therefore lengthens the quiet lead-in
+        and the hold, never shortens the hold or cuts off the release: ``hold_seconds``
+        is the shortest hold and every trial ends with ``release_seconds`` of release.
+
         Raises
         ------
         StaleSensor
@@ -281,25 +295,31 @@ class ForceCalibration:
         # instants; no extrapolation means the first frame needs one before it)
         lead = c.samples(c.load_cell_max_gap)
         tare = c.tare_samples
-        hold = c.samples(c.protocol.hold_seconds)
-        total = tare + hold + c.samples(c.protocol.release_seconds)
         open_angle = theta + c.open_margin
         self.rig.command(open_angle)
         buffer = self.rig.start_recording()
         try:
             await self.rig.wait_samples(lead + tare)
             self.rig.command(plan.target(theta))
-            await self.rig.wait_samples(lead + tare + hold)
+            squeeze = await self._motion_start(buffer, closing=True)
+            if squeeze is None:
+                return self._did_not_follow('closing')
+            await self.rig.wait_samples(squeeze + c.samples(c.protocol.hold_seconds))
             self.rig.command(open_angle)
-            await self.rig.wait_samples(lead + total)
-            recording = buffer.snapshot(lead + total)
+            release = await self._motion_start(buffer, closing=False)
+            if release is None:
+                return self._did_not_follow('opening')
+            end = release + c.samples(c.protocol.release_seconds)
+            await self.rig.wait_samples(end)
+            recording = buffer.snapshot(end)
             await self.rig.wait_load_cell(int(recording.frame_times_ns[-1]))
-            recording = buffer.snapshot(lead + total)
+            recording = buffer.snapshot(end)
         finally:
             self.rig.stop_recording()
         if recording.problems:
             return '; '.join(recording.problems)
-        times, frames = recording.frame_times_ns[lead:], recording.frames[lead:]
+        start = squeeze - tare
+        times, frames = recording.frame_times_ns[start:], recording.frames[start:]
         aligned = align_load_cell(times, recording.load_times_ns, recording.load_values,
                                   c.load_cell_max_gap)
         if not aligned.ok:
@@ -309,6 +329,40 @@ class ForceCalibration:
             force = force - force[:tare].mean()
         self.store.save_trial(plan, frames, force, theta, int(times[0]))
         return ''
+
+    async def _motion_start(self, buffer: RecordingBuffer, closing: bool) -> int | None:
+        """Frame index at which the gripper began to follow the command just sent.
+
+        The joint's position when the command was sent is the reference; the first report
+        beyond it by ``MOTION_TOLERANCE`` in the commanded direction is the motion, and it
+        began after the last report before it (by sample time, not arrival). The frames
+        received when the command was sent bound it from below (the command cannot act
+        before it is sent).
+
+        Returns
+        -------
+        int or None
+            The index; None if the joint did not move within ``MOTION_TIMEOUT`` of
+            recording after the command.
+        """
+        sent = buffer.count
+        times, _ = buffer.frames_from(0)
+        sent_ns = int(times[sent - 1])
+        sign = -1.0 if closing else 1.0
+        limit = sent + self.config.samples(MOTION_TIMEOUT)
+        while True:
+            began_ns = buffer.motion_start_ns(sent_ns, sign, MOTION_TOLERANCE)
+            if began_ns is not None:
+                times, _ = buffer.frames_from(0)
+                return max(sent, int(np.searchsorted(times, began_ns, side='right')))
+            if buffer.count >= limit:
+                return None
+            await self.rig.wait_samples(buffer.count + 1)
+
+    def _did_not_follow(self, direction: str) -> str:
+        where = self.rig.joint_position
+        return (f'the gripper did not start {direction} within {MOTION_TIMEOUT:g} s of the '
+                f'command (joint {"unknown" if where is None else f"at {where:.3f} rad"})')
 
     # ------------------------------------------------------------------ theta_zeroF
     async def find_zero_force(self, name: str) -> float:

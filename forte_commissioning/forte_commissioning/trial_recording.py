@@ -9,6 +9,7 @@ everything else, for :func:`.load_cell.align_load_cell`.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -109,6 +110,38 @@ class RecordingBuffer:
         """One joint position report [ns], [rad]."""
         if math.isfinite(position):
             self._joint.append((int(stamp_ns), float(position)))
+
+    def motion_start_ns(self, since_ns: int, direction: float, tolerance: float) -> int | None:
+        """When the joint began to move in ``direction`` after ``since_ns`` [ns].
+
+        Parameters
+        ----------
+        since_ns : int
+            Sample time from which to look [ns]; the joint's reference position is its last
+            report at or before it (the first report if none is).
+        direction : float
+            +1 for opening (the position rises), -1 for closing.
+        tolerance : float
+            Travel past the reference that counts as motion [rad].
+
+        Returns
+        -------
+        int or None
+            Sample time of the last report before the first one ``tolerance`` past the
+            reference [ns] (the motion began after it); None while no report is.
+        """
+        reports = sorted(self._joint)
+        if not reports:
+            return None
+        stamps = [stamp for stamp, _ in reports]
+        index = max(bisect.bisect_right(stamps, since_ns) - 1, 0)
+        reference = reports[index][1]
+        still = reports[index][0]
+        for stamp, position in reports[index + 1:]:
+            if (position - reference) * direction > tolerance:
+                return still
+            still = stamp
+        return None
 
     def add_problem(self, text: str) -> None:
         """Note something that makes the recording unusable."""

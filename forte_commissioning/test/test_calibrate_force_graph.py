@@ -15,6 +15,7 @@ import json
 import signal
 import time
 from collections import Counter
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -24,7 +25,6 @@ from forte_bringup.testing import watching
 from forte_driver.replay.bags import BagReadReport, read_bag
 from forte_evaluation.closed_loop import run_trial
 from forte_perception.force_training import (
-    cross_validate,
     load_calibration,
     make_rows,
     train_model,
@@ -37,6 +37,11 @@ from forte_sim.dataset import QUICK_PROTOCOL, generate_calibration_dataset
 FACTOR = 6.0
 #: No frame for this long (wall) is a stale sensor: generous, other jobs share the machine.
 STALE = 2.0
+
+
+def rmse(model, rows) -> float:
+    """Root-mean-square error of ``model`` on ``rows`` [N]."""
+    return float(np.sqrt(np.mean((model.predict(rows.features) - rows.force) ** 2)))
 
 
 def sim_process(**parameters) -> NodeProcess:
@@ -89,17 +94,21 @@ def test_quick_calibration_through_ros_trains_a_model_that_holds_the_raspberry(t
     assert {'/tactile/frames', '/load_cell/wrench', '/joint_states', '/gripper/command',
             '/tactile/sensor_info'} <= set(counts), (counts, report)
     assert counts['/tactile/frames'] > 48 * 170      # 48 trials of 170 batches of 100
-    # same trial count offline: CV RMSE within 10 %
+    # as good as the offline rig's model of the same draws: both scored on other draws (seed
+    # 1), RMSE within 10 % (a 50 ms late load cell costs +28 %, a 10 % scale error +126 %;
+    # the CV RMSE of each dataset is no such measure: the hold of a trial whose opening
+    # arrived late is longer, and its extra rows weigh on the two strongest trials' error)
     ros_rows = make_rows(dataset)
-    reference = cross_validate(make_rows(generate_calibration_dataset(QUICK_PROTOCOL)),
-                               folds=10, C=10.0, epsilon=0.02)['overall']['rmse']
-    measured = cross_validate(ros_rows, folds=10, C=10.0, epsilon=0.02)['overall']['rmse']
-    print(f'quick session through ROS: {elapsed:.0f} s; CV RMSE {measured:.4f} N (ROS) vs '
-          f'{reference:.4f} N (forte_sim_dataset)')
-    assert abs(measured - reference) <= 0.10 * reference
-    # the model it produced lifts and holds the raspberry (closed loop, ground truth)
+    offline = train_model(make_rows(generate_calibration_dataset(QUICK_PROTOCOL)),
+                          C=10.0, epsilon=0.02)
     model = train_model(ros_rows, C=10.0, epsilon=0.02,
                         metadata={'sensor': training_sensor(dataset)})
+    other_draws = make_rows(generate_calibration_dataset(replace(QUICK_PROTOCOL, seed=1)))
+    reference, measured = (rmse(candidate, other_draws) for candidate in (offline, model))
+    print(f'quick session through ROS: {elapsed:.0f} s; RMSE on other draws {measured:.4f} N '
+          f'(ROS) vs {reference:.4f} N (forte_sim_dataset)')
+    assert abs(measured - reference) <= 0.10 * reference
+    # the model it produced lifts and holds the raspberry (closed loop, ground truth)
     for seed in (0, 1):
         result = run_trial('raspberry', 'FORTE', seed=seed, model=model)
         assert result.outcome == 'LIFTED' and result.object_state == 'HELD', result

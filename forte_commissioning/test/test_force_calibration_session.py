@@ -100,8 +100,9 @@ def test_a_session_writes_the_contract_dataset(reference):
         assert int(data['tare_samples']) == 1000 and float(data['fs']) == 2000.0
         assert json.loads(str(data['sensor_identity']))['source'] == 'sim'
         lengths = np.bincount(data['trial'])
-        # quiet 1000 + hold 2000 + release 1000 samples per trial
-        np.testing.assert_array_equal(lengths, 4000)
+        # quiet 1000 + hold 2000 + release 1000 samples per trial; the hold ends when a
+        # joint report (one per 20-sample batch) shows the opening: up to one batch longer
+        assert ((lengths >= 4000) & (lengths <= 4020)).all(), lengths
         force = data['force']
     dataset = load_calibration(report.dataset)       # the trainer's own checks
     assert 1.0 < float(force.max()) < 9.0
@@ -214,6 +215,71 @@ def test_a_gripper_that_does_not_follow_is_named_not_taken_for_a_missing_indento
                                        r'at 0\.05 rad/s from 0\.\d+ rad, it is at 0\.\d+ rad'):
         run(tmp_path, Unpowered())
     assert not SessionStore(tmp_path, CONFIG).done_count()
+
+
+class LateRig(SceneRig):
+    """Every command reaches the fingers ``delay`` batches after it is sent (a loaded
+    machine, a simulator ahead of real time, a slow bus); ``ignore_trials`` drops the
+    trials' commands (not the theta_zeroF search's) altogether."""
+
+    def __init__(self, delay: int, ignore_trials: bool = False) -> None:
+        super().__init__()
+        self.delay, self.ignore_trials = delay, ignore_trials
+        self.pending: list[tuple[int, tuple[float, float]]] = []
+        self.searching = False
+
+    async def new_scene(self, plan, search):
+        self.searching = search
+        await super().new_scene(plan, search)
+
+    def command(self, angle, profile_velocity=0.0):
+        self.commands.append((float(angle), float(profile_velocity)))
+        if not (self.ignore_trials and not self.searching):
+            self.pending.append((self.batches + self.delay, (float(angle),
+                                                             float(profile_velocity))))
+
+    def step(self):
+        while self.pending and self.pending[0][0] <= self.batches:
+            self._command = self.pending.pop(0)[1]
+        super().step()
+
+
+def test_late_commands_lengthen_the_hold_and_never_cut_the_release(reference, tmp_path):
+    """Commands 1.5 s late (75 batches; half the hold and three times the release): each
+    trial still has its quiet tare just before the squeeze, at least the whole hold, and the
+    whole release after the fingers opened: the same peak and the same released end as on
+    a rig without delay."""
+    folder, _ = reference
+    report = run(tmp_path, LateRig(delay=75))
+    assert report.done == 6 and not report.dropped and not report.lost
+    late, prompt = trials_of(report.dataset), trials_of(folder / 'calibration.npz')
+    tare, hold, release = 1000, 2000, 1000
+    for trial, (frames, force) in late.items():
+        # the hold runs on until the late opening reaches the fingers: 1500 samples, and up
+        # to one batch until a joint report shows it
+        assert tare + hold + release + 1500 <= force.size <= tare + hold + release + 1520, \
+            force.size
+        quiet = np.abs(force[:tare] - np.median(force[:tare]))
+        assert quiet.max() < 0.05, (trial, quiet.max())          # no squeeze in the tare
+        squeezed = np.flatnonzero(force > 0.1)
+        assert tare <= squeezed[0] < tare + 500, (trial, squeezed[0])
+        # the whole release: its last ``release`` samples start at the held force and end
+        # released at least as far as on the prompt rig (the hold, 1.5 s longer, relaxed
+        # the finger by up to 3 %)
+        prompt_force = prompt[trial][1]
+        assert abs(force[-release] - prompt_force[-release]) < \
+            0.05 * prompt_force[-release] + 0.02, (trial, force[-release])
+        assert force[-200:].max() <= prompt_force[-200:].max() + 0.05, \
+            (trial, force[-200:].max())
+        assert abs(force.max() - prompt_force.max()) < 0.02 * prompt_force.max() + 0.02
+
+
+def test_a_gripper_that_ignores_a_trials_command_drops_the_trial_and_names_it(tmp_path):
+    report = run(tmp_path, LateRig(delay=0, ignore_trials=True))
+    assert report.done == 0 and report.lost == list(range(6))
+    assert len(report.dropped) == 6 * CONFIG.max_attempts
+    assert all(drop['reason'].startswith('the gripper did not start closing within 10 s of '
+                                         'the command (joint at ') for drop in report.dropped)
 
 
 def test_a_session_folder_of_other_settings_is_refused(reference):
