@@ -254,7 +254,7 @@ def test_late_commands_lengthen_the_hold_and_never_cut_the_release(reference, tm
     assert report.done == 6 and not report.dropped and not report.lost
     late, prompt = trials_of(report.dataset), trials_of(folder / 'calibration.npz')
     tare, hold, release = 1000, 2000, 1000
-    for trial, (frames, force) in late.items():
+    for trial, (_frames, force) in late.items():
         # the hold runs on until the late opening reaches the fingers: 1500 samples, and up
         # to one batch until a joint report shows it
         assert tare + hold + release + 1500 <= force.size <= tare + hold + release + 1520, \
