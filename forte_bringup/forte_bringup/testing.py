@@ -272,15 +272,24 @@ def watching(namespace: str = '') -> Iterator[Watcher]:
     executor = SingleThreadedExecutor(context=context)
     node = Watcher(context, namespace)
     executor.add_node(node)
-    thread = threading.Thread(target=executor.spin, daemon=True)
+    closing = threading.Event()
+
+    def spin() -> None:
+        while not closing.is_set() and context.ok():
+            executor.spin_once(timeout_sec=0.05)
+
+    thread = threading.Thread(target=spin, daemon=True)
     thread.start()
     try:
         yield node
     finally:
-        executor.shutdown()
+        # the thread ends before the executor's guard conditions and the node go (a spin
+        # still waiting on a destroyed guard condition raised in the thread)
+        closing.set()
+        thread.join(timeout=5)
+        executor.shutdown(timeout_sec=1.0)
         node.destroy_node()
         rclpy.try_shutdown(context=context)
-        thread.join(timeout=5)
 
 
 @contextmanager
