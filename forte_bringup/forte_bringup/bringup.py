@@ -49,6 +49,7 @@ from forte_bringup.graph import (
     argument_settings,
     clock_remappings,
     namespaced_parameter_file,
+    node_arguments,
     overlay_nodes,
     parameter_text,
     params_file,
@@ -129,10 +130,11 @@ def node_command(
     try:
         namespace = graph_namespace(arguments.get('namespace', ''))
         remappings, parameters = argument_settings(spec, arguments, graph)
+        command_line = node_arguments(spec, arguments, graph)
     except ValueError as error:
         raise BringupError(str(error)) from error
-    command = [executable or find_executable(spec.package, spec.executable), '--ros-args',
-               '-r', f'__node:={spec.name}']
+    command = [executable or find_executable(spec.package, spec.executable), *command_line,
+               '--ros-args', '-r', f'__node:={spec.name}']
     if namespace:
         command += ['-r', f'__ns:={namespace}']
     command += ['--params-file', str(params)]

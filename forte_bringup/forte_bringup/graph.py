@@ -54,8 +54,14 @@ class NodeSpec:
     enabled_by : str
         A ``bool`` argument that turns the node on or off ('' = always started).
     robot_model : bool
-        robot_state_publisher: started only where installed (:mod:`forte_bringup.graph_nodes`),
-        ``robot_description`` the gripper's URDF for ``prefix`` (:func:`argument_settings`).
+        robot_state_publisher: ``robot_description`` the gripper's URDF for ``prefix``
+        (:func:`argument_settings`).
+    rviz_view : bool
+        rviz2: started with the view generated for the graph's namespace and prefix
+        (:func:`node_arguments`, :mod:`forte_bringup.rviz_view`).
+
+    A node of a package outside FORTE (robot_state_publisher, rviz2) starts only where it
+    is installed (:mod:`forte_bringup.graph_nodes`).
 
     Every node whose messages carry frame ids or joint names has a ``prefix`` parameter,
     set from the graph's ``prefix`` argument through ``argument_parameters``.
@@ -71,6 +77,7 @@ class NodeSpec:
     fixed_parameters: tuple[tuple[str, object], ...] = ()
     enabled_by: str = ''
     robot_model: bool = False
+    rviz_view: bool = False
 
 
 @dataclass(frozen=True)
@@ -219,10 +226,44 @@ def argument_settings(spec: NodeSpec, arguments: Mapping[str, str],
             except ValueError as error:
                 raise ValueError(f'argument {argument}:={value}: {error}') from error
         parameters[parameter] = value
+    use_sim_time = arguments.get('use_sim_time', '')
+    if use_sim_time:  # empty: the YAML's (every node's block says the graph's own time)
+        parameters['use_sim_time'] = Argument('use_sim_time', '', '', 'bool').typed(
+            use_sim_time)
     if spec.robot_model:
-
         parameters.update(robot_state_publisher_parameters(arguments.get('prefix', '')))
     return remappings, parameters
+
+
+def node_arguments(spec: NodeSpec, arguments: Mapping[str, str],
+                   graph: GraphSpec | None = None) -> list[str]:
+    """Command-line arguments of a node (before ``--ros-args``): rviz2's ``-d <view>``.
+
+    Parameters
+    ----------
+    spec : NodeSpec
+        The node.
+    arguments : mapping of str to str
+        Argument values (``namespace``, ``prefix``, ``robot_state_publisher``).
+    graph : GraphSpec, optional
+        The graph (whether it runs its own robot_state_publisher by default).
+
+    Returns
+    -------
+    list of str
+        ``['-d', <file>]`` for rviz2 (the view written for the graph's namespace and
+        prefix, :func:`forte_bringup.rviz_view.write_view`); nothing for other nodes.
+    """
+    if not spec.rviz_view:
+        return []
+    from forte_bringup.rviz_view import write_view
+
+    own_model = True
+    if graph is not None:
+        argument = graph.argument('robot_state_publisher')
+        own_model = bool(argument.typed(arguments.get(argument.name, '') or argument.default))
+    namespace = graph_namespace(arguments.get('namespace', ''))
+    return ['-d', str(write_view(namespace, arguments.get('prefix', ''), own_model))]
 
 
 #: ``(parameter, argument)`` of the TF / joint-name prefix, on every node that has one.
@@ -244,6 +285,8 @@ VISUALIZATION = NodeSpec('forte_bringup', 'forte_visualization', 'visualization'
 ROBOT_STATE_PUBLISHER = NodeSpec('robot_state_publisher', 'robot_state_publisher',
                                  'robot_state_publisher', enabled_by='robot_state_publisher',
                                  robot_model=True)
+#: RViz with the graph's view (``rviz:=true``), in every graph.
+RVIZ = NodeSpec('rviz2', 'rviz2', 'rviz2', enabled_by='rviz', rviz_view=True)
 
 #: Lifecycle transitions a node may refuse before its graph gives up on it, and the pause
 #: before asking again [s] (a device that just enumerated, a servo bus that missed one status
@@ -255,31 +298,49 @@ TRANSITION_RETRY_DELAY = 1.0
 #: forte_bringup, installed in ``lib/forte_bringup/`` like the node executables).
 RECORDER = NodeSpec('forte_bringup', 'forte_record', 'forte_recorder')
 
-COMMON_ARGUMENTS = (
-    Argument('params_file', '', 'parameter YAML for every node of this graph '
-             '(default: config/<graph>.yaml of forte_bringup)'),
-    Argument('force_model', '', 'force model file for perception (empty: the YAML value)'),
-    Argument('arm_cmd_vel_topic', 'arm/cmd_vel', 'topic of the arm Cartesian velocity '
-             'commands (TwistStamped), e.g. /servo_node/delta_twist_cmds for MoveIt Servo'),
-    Argument('record', 'false', 'also record the graph topics to an MCAP bag (forte_record)'),
-    Argument('bag_output', '', 'bag folder to record to (default out/bags/forte_<time>)'),
-    Argument('params_overlay', '', 'second parameter YAML applied after params_file to the '
-             'nodes it names (e.g. the slip setting written by forte_tune_slip); empty: none'),
-    Argument('namespace', '', 'ROS namespace of every node, topic, service and action of '
-             'the graph, e.g. right (node names unchanged inside it; a sim graph also uses '
-             '<namespace>/clock); empty: the root namespace'),
-    Argument('prefix', '', 'TF / joint-name prefix prepended to every frame id and joint '
-             'name the nodes publish, e.g. right_ (right_forte_base_link, '
-             'right_forte_left_finger_joint); empty: none'),
-    Argument('visualization', 'true', 'start forte_visualization (per-pad WrenchStamped on '
-             'visualization/<side>_pad_wrench, MarkerArray on visualization/markers for RViz)',
-             kind='bool'),
-    Argument('robot_state_publisher', 'true', "start robot_state_publisher with the "
-             "gripper's URDF for prefix (TF of body, fingers and pads; robot_description) "
-             'where it is installed (else one line says so and the graph runs without it); '
-             "false when the robot's own robot_state_publisher already has the gripper",
-             kind='bool'),
-)
+def common_arguments(robot_state_publisher: str) -> tuple[Argument, ...]:
+    """The arguments of every graph; ``robot_state_publisher`` is the default of the
+    argument of that name ('false' for the graph a robot's launch includes)."""
+    return (
+        Argument('params_file', '', 'parameter YAML for every node of this graph '
+                 '(default: config/<graph>.yaml of forte_bringup)'),
+        Argument('force_model', '', 'force model file for perception (empty: the YAML '
+                 'value)'),
+        Argument('arm_cmd_vel_topic', 'arm/cmd_vel', 'topic of the arm Cartesian velocity '
+                 'commands (TwistStamped), e.g. /servo_node/delta_twist_cmds for MoveIt Servo'),
+        Argument('record', 'false', 'also record the graph topics to an MCAP bag '
+                 '(forte_record)'),
+        Argument('bag_output', '', 'bag folder to record to (default out/bags/forte_<time>)'),
+        Argument('params_overlay', '', 'second parameter YAML applied after params_file to '
+                 'the nodes it names (e.g. the slip setting written by forte_tune_slip); '
+                 'empty: none'),
+        Argument('namespace', '', 'ROS namespace of every node, topic, service and action of '
+                 'the graph, e.g. right (node names unchanged inside it; a sim graph also uses '
+                 '<namespace>/clock); empty: the root namespace'),
+        Argument('prefix', '', 'TF / joint-name prefix prepended to every frame id and joint '
+                 'name the nodes publish, e.g. right_ (right_forte_base_link, '
+                 'right_forte_left_finger_joint); empty: none'),
+        Argument('use_sim_time', '', 'true: every node of the graph runs on /clock '
+                 '(<namespace>/clock in a namespaced sim graph); false: on the wall clock; '
+                 "empty: the graph's own (sim: true, hardware and replay: false)", kind='bool'),
+        Argument('visualization', 'true', 'start forte_visualization (per-pad WrenchStamped '
+                 'on visualization/<side>_pad_wrench, MarkerArray on visualization/markers for '
+                 'RViz)', kind='bool'),
+        Argument('robot_state_publisher', robot_state_publisher,
+                 "start robot_state_publisher with the gripper's URDF for prefix (TF of body, "
+                 'fingers and pads; robot_description in the namespace) where it is installed '
+                 '(else one line says so and the graph runs without it); false when the '
+                 "robot's own robot_state_publisher has the gripper in its URDF",
+                 kind='bool'),
+        Argument('rviz', 'false', 'start rviz2 (where installed) with the view written for '
+                 "this graph's namespace and prefix (topics in the namespace, fixed frame "
+                 "<prefix>forte_base_link; the robot's /robot_description when "
+                 'robot_state_publisher is false)', kind='bool'),
+    )
+
+
+#: The arguments of the standalone graphs (sim, replay): they publish the gripper's model.
+COMMON_ARGUMENTS = common_arguments('true')
 
 GRAPHS: dict[str, GraphSpec] = {
     'hardware': GraphSpec(
@@ -296,9 +357,11 @@ GRAPHS: dict[str, GraphSpec] = {
             CONTROL,
             VISUALIZATION,
             ROBOT_STATE_PUBLISHER,
+            RVIZ,
         ),
         (
-            *COMMON_ARGUMENTS,
+            # included into a robot's launch: the robot owns robot_state_publisher
+            *common_arguments('false'),
             Argument('sensor_port', '', 'serial device of the tactile sensor, e.g. '
                      '/dev/forte_sensor (empty: the YAML value)'),
             Argument('gripper_port', '', 'serial device of the U2D2 Dynamixel interface, '
@@ -318,6 +381,7 @@ GRAPHS: dict[str, GraphSpec] = {
             CONTROL,
             VISUALIZATION,
             ROBOT_STATE_PUBLISHER,
+            RVIZ,
         ),
         (
             *COMMON_ARGUMENTS,
@@ -347,6 +411,7 @@ GRAPHS: dict[str, GraphSpec] = {
                      argument_parameters=(PREFIX,), fixed_parameters=(('dry_run', True),)),
             VISUALIZATION,
             ROBOT_STATE_PUBLISHER,
+            RVIZ,
         ),
         (
             *COMMON_ARGUMENTS,

@@ -5,10 +5,14 @@ node it can start; two are optional:
 
 - ``visualization`` (forte_visualization), on unless ``visualization:=false``;
 - ``robot_state_publisher`` with the gripper's URDF for the graph's ``prefix``, on unless
-  ``robot_state_publisher:=false`` (the robot's own robot_state_publisher already has the
-  gripper), and only where it is installed: without it (a bare machine: it has no wheel)
-  the graph logs :data:`forte_bringup.robot_model.ROBOT_STATE_PUBLISHER_MISSING` once and
-  runs without it.
+  ``robot_state_publisher:=false`` (the default of the hardware graph, which a robot's
+  launch includes: the robot's own robot_state_publisher has the gripper);
+- ``rviz2`` with the graph's view (:mod:`forte_bringup.rviz_view`), on with ``rviz:=true``.
+
+The last two are not FORTE's: they start only where installed; without one (a bare machine:
+neither has a wheel) the graph logs one line
+(:data:`~forte_bringup.robot_model.ROBOT_STATE_PUBLISHER_MISSING`,
+:data:`~forte_bringup.robot_model.RVIZ_MISSING`) and runs without it.
 
 The launch files (:mod:`forte_bringup.launch_support`) and ``forte_bringup``
 (:mod:`forte_bringup.bringup`) both start exactly :func:`started_nodes`, and both give
@@ -24,10 +28,18 @@ from pathlib import Path
 import yaml
 
 from forte_bringup.graph import PERCEPTION, GraphSpec, NodeSpec
-from forte_bringup.robot_model import robot_state_publisher_message
+from forte_bringup.robot_model import (
+    ROBOT_STATE_PUBLISHER_MISSING,
+    RVIZ_MISSING,
+    installed_executable,
+)
 
 __all__ = ['NO_FORCE_MODEL_WARNING', 'enabled', 'force_model_source', 'prepare_force_model',
            'started_nodes']
+
+
+#: Packages of the graphs' nodes that are not FORTE's -> the line logged where it is missing.
+NOT_FORTE = {'robot_state_publisher': ROBOT_STATE_PUBLISHER_MISSING, 'rviz2': RVIZ_MISSING}
 
 
 def enabled(graph: GraphSpec, spec: NodeSpec, arguments: Mapping[str, str]) -> bool:
@@ -69,8 +81,9 @@ def started_nodes(graph: GraphSpec, arguments: Mapping[str, str],
     nodes : list of NodeSpec
         The nodes to start, in the graph's order.
     notes : list of str
-        :data:`~forte_bringup.robot_model.ROBOT_STATE_PUBLISHER_MISSING` when the
-        robot-model node is wanted but not installed; else nothing.
+        One line per wanted node that is not installed
+        (:data:`~forte_bringup.robot_model.ROBOT_STATE_PUBLISHER_MISSING`,
+        :data:`~forte_bringup.robot_model.RVIZ_MISSING`); else nothing.
 
     Raises
     ------
@@ -82,11 +95,10 @@ def started_nodes(graph: GraphSpec, arguments: Mapping[str, str],
     for spec in graph.nodes:
         if not enabled(graph, spec, arguments):
             continue
-        if spec.robot_model:
-            missing = robot_state_publisher_message(environ)
-            if missing is not None:
-                notes.append(missing)
-                continue
+        if spec.package in NOT_FORTE and \
+                installed_executable(spec.package, spec.executable, environ) is None:
+            notes.append(NOT_FORTE[spec.package])
+            continue
         nodes.append(spec)
     return nodes, notes
 

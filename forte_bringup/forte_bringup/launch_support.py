@@ -25,10 +25,12 @@ with copies of the parameter files keyed by the namespaced node names
 nodes that publish frame ids or joint names.
 
 ``visualization:=false`` leaves out forte_visualization; robot_state_publisher (the
-gripper's URDF for ``prefix``) starts unless ``robot_state_publisher:=false``, and only where
-it is installed: elsewhere one line
-(:data:`forte_bringup.robot_model.ROBOT_STATE_PUBLISHER_MISSING`) is logged and the graph
-comes up without it (:func:`forte_bringup.graph_nodes.started_nodes`).
+gripper's URDF for ``prefix``) starts unless ``robot_state_publisher:=false`` (the hardware
+graph's default: a robot's launch includes it, and the robot's robot_state_publisher has the
+gripper), ``rviz:=true`` adds rviz2 with the view written for the namespace and prefix
+(:mod:`forte_bringup.rviz_view`); both only where installed: elsewhere one line is logged and
+the graph comes up without it (:func:`forte_bringup.graph_nodes.started_nodes`).
+``use_sim_time:=true|false`` sets ``use_sim_time`` on every node (empty: the graph's own).
 
 The sim graph without a force model (no ``force_model:=``, no ``model_path`` in the YAML)
 gives perception the simulated rig's model, made on first use and cached
@@ -64,6 +66,7 @@ from forte_bringup.graph import (
     argument_settings,
     clock_remappings,
     namespaced_parameter_file,
+    node_arguments,
     overlay_nodes,
     recorder_topics,
 )
@@ -73,7 +76,8 @@ from forte_ros.contract import graph_namespace
 
 def node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
                   overrides: dict[str, object], params_file: str,
-                  overlay: str = '', namespace: str = '') -> list[Action]:
+                  overlay: str = '', namespace: str = '',
+                  command_line: list[str] | None = None) -> list[Action]:
     """The actions that start one node (and drive it if it is a lifecycle node).
 
     Parameters
@@ -92,6 +96,8 @@ def node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
     namespace : str
         Absolute namespace of the node ('' = root); the parameter files must be keyed for
         it (:func:`forte_bringup.graph.namespaced_parameter_file`).
+    command_line : list of str, optional
+        Its arguments before ``--ros-args`` (:func:`forte_bringup.graph.node_arguments`).
 
     Returns
     -------
@@ -106,7 +112,7 @@ def node_actions(spec: NodeSpec, remappings: list[tuple[str, str]],
     if not spec.lifecycle:
         return [Node(package=spec.package, executable=spec.executable, name=spec.name,
                      namespace=namespace, parameters=parameters, remappings=remappings,
-                     output='screen', emulate_tty=True)]
+                     arguments=command_line or [], output='screen', emulate_tty=True)]
     node = LifecycleNode(package=spec.package, executable=spec.executable, name=spec.name,
                          namespace=namespace, parameters=parameters, remappings=remappings,
                          output='screen', emulate_tty=True)
@@ -260,7 +266,7 @@ def graph_launch_description(graph_name: str) -> LaunchDescription:
             actions += node_actions(spec, *argument_settings(spec, arguments, graph),
                                      params_file,
                                      overlay if {spec.name, '/**'} & named else '',
-                                     namespace)
+                                     namespace, node_arguments(spec, arguments, graph))
         if IfCondition(LaunchConfiguration('record')).evaluate(context):
             actions.append(_recorder_action(context, namespace,
                                             clock_remappings(graph, arguments)))

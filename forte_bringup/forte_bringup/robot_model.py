@@ -25,7 +25,8 @@ from pathlib import Path
 from forte_ros.contract import check_prefix
 
 __all__ = ['GRIPPER_XACRO', 'MACRO_XACRO', 'ROBOT_DESCRIPTION_TOPIC', 'ROBOT_STATE_PUBLISHER',
-           'ROBOT_STATE_PUBLISHER_MISSING', 'expand_gripper', 'robot_state_publisher_available',
+           'ROBOT_STATE_PUBLISHER_MISSING', 'RVIZ_MISSING', 'expand_gripper',
+           'installed_executable', 'robot_state_publisher_available',
            'robot_state_publisher_executable', 'robot_state_publisher_message',
            'robot_state_publisher_parameters', 'urdf_folder']
 
@@ -41,6 +42,10 @@ ROBOT_STATE_PUBLISHER_MISSING = (
     'robot_state_publisher is not installed here (no ROS 2 install; it has no wheel): the '
     "gripper's TF (body, fingers, pads) and robot_description are not published; on a "
     'ROS 2 Jazzy machine: apt install ros-jazzy-robot-state-publisher')
+#: The one line a graph prints for ``rviz:=true`` where rviz2 is not installed.
+RVIZ_MISSING = (
+    'rviz2 is not installed here (no ROS 2 install; it has no wheel): rviz:=true starts '
+    'nothing; on a ROS 2 Jazzy machine: apt install ros-jazzy-rviz2')
 
 def urdf_folder(environ: Mapping[str, str] | None = None) -> Path:
     """Folder of the gripper's xacro files.
@@ -115,15 +120,18 @@ def robot_state_publisher_parameters(prefix: str = '') -> dict[str, str]:
     return {'robot_description': expand_gripper(prefix)}
 
 
-def robot_state_publisher_executable(environ: Mapping[str, str] | None = None) -> Path | None:
-    """robot_state_publisher's executable as ``ros2 run`` finds it, or None.
+def installed_executable(package: str, executable: str,
+                         environ: Mapping[str, str] | None = None) -> Path | None:
+    """A package's executable as ``ros2 run`` finds it, or None.
 
     A prefix of ``AMENT_PREFIX_PATH`` provides it when its ament index registers the
-    package (``share/ament_index/resource_index/packages/robot_state_publisher``) and it
-    installed the executable (``lib/robot_state_publisher/robot_state_publisher``).
+    package (``share/ament_index/resource_index/packages/<package>``) and it installed the
+    executable (``lib/<package>/<executable>``).
 
     Parameters
     ----------
+    package, executable : str
+        E.g. ``robot_state_publisher``, ``robot_state_publisher``.
     environ : mapping, optional
         Environment to search (default ``os.environ``).
 
@@ -132,7 +140,6 @@ def robot_state_publisher_executable(environ: Mapping[str, str] | None = None) -
     Path or None
         The executable of the first prefix that has it.
     """
-    package, executable = ROBOT_STATE_PUBLISHER
     environ = os.environ if environ is None else environ
     for prefix in environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
         if not prefix:
@@ -143,6 +150,11 @@ def robot_state_publisher_executable(environ: Mapping[str, str] | None = None) -
         if marker.is_file() and candidate.is_file() and os.access(candidate, os.X_OK):
             return candidate
     return None
+
+
+def robot_state_publisher_executable(environ: Mapping[str, str] | None = None) -> Path | None:
+    """robot_state_publisher's executable (:func:`installed_executable`), or None."""
+    return installed_executable(*ROBOT_STATE_PUBLISHER, environ)
 
 
 def robot_state_publisher_available(environ: Mapping[str, str] | None = None) -> bool:

@@ -4,10 +4,12 @@ nodes, configured and activated on start), perception, grasp control.
     ros2 launch forte_bringup hardware.launch.py sensor_port:=/dev/forte_sensor \\
         gripper_port:=/dev/forte_gripper arm_cmd_vel_topic:=/servo_node/delta_twist_cmds
 
-Also started: forte_visualization (pad wrenches, markers; ``visualization:=false``: not)
-and robot_state_publisher with the gripper's URDF for ``prefix`` where it is installed
-(``robot_state_publisher:=false`` when the robot already publishes the gripper; not
-installed: one line, and the graph without it).
+Also started: forte_visualization (pad wrenches, markers; ``visualization:=false``: not).
+This is the launch file a robot's launch includes (docs/bringup.md, "On a robot"): its
+defaults add nothing the arm's bringup owns (``robot_state_publisher:=false``: the arm's
+robot_state_publisher has the gripper in its URDF; no ``/robot_description``, no clock, no
+RViz); ``robot_state_publisher:=true`` for the gripper alone, ``rviz:=true`` for RViz with
+the view of ``namespace`` and ``prefix``, ``use_sim_time`` for every node.
 
 ``params_overlay:=FILE`` loads a second parameter YAML after the graph's own, for the
 nodes it names (e.g. the slip setting of forte_tune_slip; forte_bringup.launch_support;

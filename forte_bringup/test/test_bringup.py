@@ -156,7 +156,9 @@ def test_robot_state_publisher_where_installed(graph: str, tmp_path, monkeypatch
     installed: left out with the one line; ``robot_state_publisher:=false``: left out, no
     line."""
     extra = {'bag': str(tmp_path / 'bag')} if graph == 'replay' else {}
-    arguments = {'namespace': 'right', 'prefix': 'right_', **extra}
+    # explicit: the hardware graph's default is false (a robot's launch includes it)
+    arguments = {'namespace': 'right', 'prefix': 'right_', 'robot_state_publisher': 'true',
+                 **extra}
     executable = fake_robot_state_publisher(tmp_path / 'ros')
     monkeypatch.setenv('AMENT_PREFIX_PATH',
                        f'{tmp_path / "ros"}{os.pathsep}{without_robot_state_publisher()}')

@@ -88,7 +88,8 @@ def table_defaults() -> dict[str, dict[str, object]]:
     return {node: {'use_sim_time': False} | {
         name: spec.default_from(defaults) for table, defaults in groups
         for name, spec in table.items()} for node, groups in tables.items()} | {
-        'robot_state_publisher': {'use_sim_time': False} | ROBOT_STATE_PUBLISHER_DEFAULTS}
+        'robot_state_publisher': {'use_sim_time': False} | ROBOT_STATE_PUBLISHER_DEFAULTS,
+        'rviz2': {'use_sim_time': False}}
 
 
 @pytest.mark.parametrize('graph', sorted(GRAPHS))

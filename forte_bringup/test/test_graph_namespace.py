@@ -108,7 +108,7 @@ def test_forte_bringup_commands_under_a_namespace(tmp_path: Path):
         (parameters,) = option_values(command, '--params-file')
         assert set(yaml.safe_load(Path(parameters).read_text())) == {
             '/right/sim', '/right/perception', '/right/grasp_controller',
-            '/right/visualization', '/right/robot_state_publisher'}
+            '/right/visualization', '/right/robot_state_publisher', '/right/rviz2'}
     recorder = commands['recorder']
     assert '__ns:=/right' in option_values(recorder, '-r')
     assert '/clock:=/right/clock' in option_values(recorder, '-r')

@@ -100,6 +100,11 @@ def test_visualization_and_robot_state_publisher(graph: str, tmp_path, monkeypat
     fake_robot_state_publisher(tmp_path / 'ros')
     context, actions = started_actions(graph, namespace='right', prefix='right_', **extra)
     nodes, lines = launched(context, actions)
+    # the hardware graph, which a robot's launch includes, leaves the model to the robot
+    assert ('robot_state_publisher' in nodes) == (graph != 'hardware')
+    context, actions = started_actions(graph, namespace='right', prefix='right_',
+                                       robot_state_publisher='true', **extra)
+    nodes, lines = launched(context, actions)
     assert ROBOT_STATE_PUBLISHER_MISSING not in lines
     for executable, package in (('forte_visualization', 'forte_bringup'),
                                 ('robot_state_publisher', 'robot_state_publisher')):
@@ -130,4 +135,7 @@ def test_visualization_and_robot_state_publisher(graph: str, tmp_path, monkeypat
     context, actions = started_actions(graph, **extra)
     nodes, lines = launched(context, actions)
     assert 'robot_state_publisher' not in nodes and 'forte_visualization' in nodes
+    assert lines.count(ROBOT_STATE_PUBLISHER_MISSING) == (graph != 'hardware')
+    context, actions = started_actions(graph, robot_state_publisher='true', **extra)
+    nodes, lines = launched(context, actions)
     assert lines.count(ROBOT_STATE_PUBLISHER_MISSING) == 1

@@ -1,0 +1,112 @@
+"""FORTE's hardware launch included beside an arm's bringup (launch_pytest, real DDS).
+
+A robot's launch file includes ``hardware.launch.py`` next to what its arm's bringup starts
+(stand_in_arm.py: ``/robot_state_publisher`` with ``/robot_description`` of an arm whose
+``tool0`` carries FORTE, and ``/joint_state_broadcaster`` on ``/joint_states``). The gripper
+(emulated sensor and servos on pseudo-terminals) is included with ``namespace:=right
+prefix:=right_`` and otherwise its defaults. Checked on the live graph:
+
+- no two nodes share a fully qualified name;
+- the arm's topics (``/robot_description``, ``/joint_states``) have no publisher but the
+  arm's nodes, and ``/tf``, ``/tf_static`` and ``/clock`` none of FORTE's (the hardware
+  graph's default is ``robot_state_publisher:=false``; no clock outside the simulator);
+- every topic the RViz view written for these arguments names (:mod:`forte_bringup.rviz_view`)
+  exists with the type RViz subscribes with.
+
+Needs launch_pytest and launch_ros (a ROS 2 install, or the launch kit on a bare machine);
+skipped with that reason otherwise.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+REASON = ('launch_pytest / launch_ros need a ROS 2 install (ros-jazzy-launch-pytest) or the '
+          'launch kit (../shared/ros2-launch-kit)')
+launch_pytest = pytest.importorskip('launch_pytest', reason=REASON)
+pytest.importorskip('launch_ros', reason=REASON)
+
+import launch  # noqa: E402
+from launch.actions import ExecuteProcess, IncludeLaunchDescription  # noqa: E402
+from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
+
+from forte_bringup.graph import GRAPHS, node_arguments  # noqa: E402
+from forte_bringup.rviz_view import view_topics  # noqa: E402
+from forte_bringup.testing import emulated_devices, watching  # noqa: E402
+from forte_ros.testing import wait_until  # noqa: E402
+
+LAUNCH = Path(__file__).resolve().parents[1] / 'launch'
+STAND_IN_ARM = Path(__file__).resolve().parent / 'stand_in_arm.py'
+ARGUMENTS = {'namespace': 'right', 'prefix': 'right_'}
+#: The arm bringup's topics and the nodes that may publish them (fully qualified).
+ARM_TOPICS = {'/robot_description': {'/robot_state_publisher'},
+              '/tf': set(),          # the stand-in publishes no TF (no tf2_msgs wheel)
+              '/tf_static': set(),
+              '/joint_states': {'/joint_state_broadcaster'},
+              '/clock': set()}
+#: Longest wait for the graph and for each expectation [s] (2 shared cores).
+UP = 90.0
+WAIT = 60.0
+
+
+@pytest.fixture
+def devices(tmp_path: Path):
+    with emulated_devices(tmp_path) as links:
+        yield links
+
+
+@launch_pytest.fixture
+def arm_and_gripper(devices: tuple[Path, Path]) -> launch.LaunchDescription:
+    sensor, gripper = devices
+    return launch.LaunchDescription([
+        ExecuteProcess(cmd=[sys.executable, str(STAND_IN_ARM), ARGUMENTS['prefix']],
+                       output='screen'),
+        IncludeLaunchDescription(
+            PythonLaunchDescriptionSource(str(LAUNCH / 'hardware.launch.py')),
+            launch_arguments={**ARGUMENTS, 'sensor_port': str(sensor),
+                              'gripper_port': str(gripper)}.items()),
+        launch_pytest.actions.ReadyToTest(),
+    ])
+
+
+def qualified(namespace: str, name: str) -> str:
+    return f'{namespace.rstrip("/")}/{name}'
+
+
+def publishers(watcher, topic: str) -> set[str]:
+    return {qualified(info.node_namespace, info.node_name)
+            for info in watcher.get_publishers_info_by_topic(topic)}
+
+
+@pytest.mark.launch(fixture=arm_and_gripper)
+def test_the_gripper_launch_adds_nothing_the_arm_owns_and_its_view_finds_every_topic():
+    graph = GRAPHS['hardware']
+    view_file = node_arguments(graph.node('rviz2'), ARGUMENTS, graph)[1]
+    import yaml
+
+    wanted = view_topics(yaml.safe_load(Path(view_file).read_text(encoding='utf-8')))
+    with watching('right') as watcher:
+        for node in ('serial_sensor', 'gripper_driver'):
+            assert watcher.wait_for_lifecycle_state(node, 'active', UP) == 'active', node
+        assert wait_until(lambda: watcher.counts['joint_states'] > 5, WAIT), watcher.counts
+
+        def topics() -> dict[str, list[str]]:
+            return dict(watcher.get_topic_names_and_types())
+
+        # every topic of the view, of RViz's type (the visualization node's arrive last)
+        assert wait_until(lambda: all(kind in topics().get(topic, ())
+                                      for topic, kind in wanted.items()), WAIT), \
+            {topic: topics().get(topic) for topic in wanted}
+        assert '/robot_description' in wanted and '/right/visualization/markers' in wanted
+        names = [qualified(namespace, name)
+                 for name, namespace in watcher.get_node_names_and_namespaces()]
+        assert len(names) == len(set(names)), sorted(names)
+        assert {'/robot_state_publisher', '/right/gripper_driver', '/right/visualization',
+                '/right/grasp_controller'} <= set(names), sorted(names)
+        for topic, owners in ARM_TOPICS.items():
+            assert publishers(watcher, topic) == owners, (topic, publishers(watcher, topic))
+        # the gripper's joints are in its namespace, prefixed
+        assert set(watcher.joint_names) == {'right_forte_left_finger_joint',
+                                            'right_forte_right_finger_joint'}
