@@ -91,6 +91,11 @@ RUNTIME_ONLY: dict[tuple[str, str], str] = {
                                      'node, used through rclpy.lifecycle',
     ('forte_bringup', 'xacro'): "expands forte_description's urdf/forte_gripper.urdf.xacro",
     ('forte_bringup', 'forte_description'): 'robot_model.py reads its urdf/ folder (share)',
+    ('forte_bringup', 'robot_state_publisher'): 'the graphs start it (robot_state_publisher:='
+                                                'true) where installed',
+    ('forte_bringup', 'rviz2'): 'the graphs start it (rviz:=true) where installed',
+    ('forte_bringup', 'diagnostic_aggregator'): 'config/diagnostics_aggregator.yaml is its '
+                                                'parameter file (docs/visualization.md)',
     ('forte_bringup', 'forte_sim'): 'the sim graph and the bench twin graph start its nodes',
     ('forte_bringup', 'forte_control'): 'every graph starts its grasp controller node',
     ('forte_description', 'xacro'): 'view_gripper.launch.py runs the xacro command',
