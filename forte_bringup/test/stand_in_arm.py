@@ -9,6 +9,11 @@ an arm's bringup names them:
   publishes none;
 - ``/joint_state_broadcaster``: ``/joint_states`` of the arm's two joints (10 Hz).
 
+``python stand_in_arm.py --as-robot-state-publisher --ros-args ...`` stands in for
+robot_state_publisher itself where it is not installed (test_launch_beside_arm.py registers
+it in an ament prefix of its own): a node named as the launch names it, publishing its
+``robot_description`` parameter on ``robot_description`` (reliable + transient local).
+
 Used by test_launch_beside_arm.py; the folder of the test files is on ``sys.path``.
 """
 from __future__ import annotations
@@ -64,7 +69,32 @@ def arm_urdf(prefix: str) -> str:
         Path(handle.name).unlink()
 
 
+def robot_state_publisher() -> None:
+    """The stand-in robot_state_publisher (its node name and namespace from --ros-args)."""
+    rclpy.init(args=sys.argv)
+    node = Node('robot_state_publisher')
+    node.declare_parameter('robot_description', '')
+    description = node.create_publisher(String, 'robot_description', LATCHED)
+    description.publish(String(data=node.get_parameter('robot_description').value))
+    _spin([node])
+
+
+def _spin(nodes: list[Node]) -> None:
+    executor = SingleThreadedExecutor()
+    for node in nodes:
+        executor.add_node(node)
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        rclpy.try_shutdown()
+
+
 def main() -> None:
+    if '--as-robot-state-publisher' in sys.argv:
+        robot_state_publisher()
+        return
     prefix = sys.argv[1] if len(sys.argv) > 1 else ''
     rclpy.init()
     state_publisher = Node('robot_state_publisher')
@@ -79,15 +109,7 @@ def main() -> None:
         joints.publish(message)
 
     broadcaster.create_timer(0.1, tick)
-    executor = SingleThreadedExecutor()
-    executor.add_node(state_publisher)
-    executor.add_node(broadcaster)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        rclpy.try_shutdown()
+    _spin([state_publisher, broadcaster])
 
 
 if __name__ == '__main__':

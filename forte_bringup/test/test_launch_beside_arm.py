@@ -13,11 +13,18 @@ prefix:=right_`` and otherwise its defaults. Checked on the live graph:
 - every topic the RViz view written for these arguments names (:mod:`forte_bringup.rviz_view`)
   exists with the type RViz subscribes with.
 
+robot_state_publisher counts as installed (an ament prefix of the test's own registers a
+stand-in, stand_in_arm.py ``--as-robot-state-publisher``), so the defaults are what keeps
+it out; and the same checks find the clash when the gripper is included in the root
+namespace with ``robot_state_publisher:=true`` (a second ``/robot_state_publisher``, a second
+publisher of ``/robot_description``).
+
 Needs launch_pytest and launch_ros (a ROS 2 install, or the launch kit on a bare machine);
 skipped with that reason otherwise.
 """
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -52,27 +59,53 @@ WAIT = 60.0
 
 
 @pytest.fixture
-def devices(tmp_path: Path):
+def devices(tmp_path: Path, monkeypatch):
+    """The emulated devices, and robot_state_publisher 'installed' (the stand-in)."""
+    prefix = tmp_path / 'ros'
+    index = prefix / 'share' / 'ament_index' / 'resource_index' / 'packages'
+    index.mkdir(parents=True)
+    (index / 'robot_state_publisher').write_text('')
+    executable = prefix / 'lib' / 'robot_state_publisher' / 'robot_state_publisher'
+    executable.parent.mkdir(parents=True)
+    executable.write_text(f'#!/bin/sh\nexec {sys.executable} {STAND_IN_ARM} '
+                          '--as-robot-state-publisher "$@"\n')
+    executable.chmod(0o755)
+    monkeypatch.setenv('AMENT_PREFIX_PATH', f'{prefix}:{os.environ["AMENT_PREFIX_PATH"]}')
     with emulated_devices(tmp_path) as links:
         yield links
 
 
-@launch_pytest.fixture
-def arm_and_gripper(devices: tuple[Path, Path]) -> launch.LaunchDescription:
+def arm_and_gripper(devices: tuple[Path, Path], **arguments: str) -> launch.LaunchDescription:
     sensor, gripper = devices
     return launch.LaunchDescription([
-        ExecuteProcess(cmd=[sys.executable, str(STAND_IN_ARM), ARGUMENTS['prefix']],
+        ExecuteProcess(cmd=[sys.executable, str(STAND_IN_ARM), arguments.get('prefix', '')],
                        output='screen'),
         IncludeLaunchDescription(
             PythonLaunchDescriptionSource(str(LAUNCH / 'hardware.launch.py')),
-            launch_arguments={**ARGUMENTS, 'sensor_port': str(sensor),
+            launch_arguments={**arguments, 'sensor_port': str(sensor),
                               'gripper_port': str(gripper)}.items()),
         launch_pytest.actions.ReadyToTest(),
     ])
 
 
+@launch_pytest.fixture
+def with_defaults(devices: tuple[Path, Path]) -> launch.LaunchDescription:
+    return arm_and_gripper(devices, **ARGUMENTS)
+
+
+@launch_pytest.fixture
+def with_its_own_model_in_the_root(devices: tuple[Path, Path]) -> launch.LaunchDescription:
+    return arm_and_gripper(devices, robot_state_publisher='true')
+
+
 def qualified(namespace: str, name: str) -> str:
     return f'{namespace.rstrip("/")}/{name}'
+
+
+def names(watcher) -> list[str]:
+    """Fully qualified names of every node on the graph (a name twice: two nodes)."""
+    return [qualified(namespace, name)
+            for name, namespace in watcher.get_node_names_and_namespaces()]
 
 
 def publishers(watcher, topic: str) -> set[str]:
@@ -80,7 +113,7 @@ def publishers(watcher, topic: str) -> set[str]:
             for info in watcher.get_publishers_info_by_topic(topic)}
 
 
-@pytest.mark.launch(fixture=arm_and_gripper)
+@pytest.mark.launch(fixture=with_defaults)
 def test_the_gripper_launch_adds_nothing_the_arm_owns_and_its_view_finds_every_topic():
     graph = GRAPHS['hardware']
     view_file = node_arguments(graph.node('rviz2'), ARGUMENTS, graph)[1]
@@ -100,13 +133,27 @@ def test_the_gripper_launch_adds_nothing_the_arm_owns_and_its_view_finds_every_t
                                       for topic, kind in wanted.items()), WAIT), \
             {topic: topics().get(topic) for topic in wanted}
         assert '/robot_description' in wanted and '/right/visualization/markers' in wanted
-        names = [qualified(namespace, name)
-                 for name, namespace in watcher.get_node_names_and_namespaces()]
-        assert len(names) == len(set(names)), sorted(names)
-        assert {'/robot_state_publisher', '/right/gripper_driver', '/right/visualization',
-                '/right/grasp_controller'} <= set(names), sorted(names)
-        for topic, owners in ARM_TOPICS.items():
-            assert publishers(watcher, topic) == owners, (topic, publishers(watcher, topic))
+        # every node discovered (the graph's last ones come up after the drivers)
+        assert wait_until(lambda: {'/robot_state_publisher', '/joint_state_broadcaster',
+                                   '/right/gripper_driver', '/right/serial_sensor',
+                                   '/right/perception', '/right/grasp_controller',
+                                   '/right/visualization'} <= set(names(watcher)), WAIT), \
+            sorted(names(watcher))
+        assert len(names(watcher)) == len(set(names(watcher))), sorted(names(watcher))
+        for topic, owners in ARM_TOPICS.items():  # (the arm's, once discovered)
+            assert wait_until(lambda: publishers(watcher, topic) == owners, 10.0), \
+                (topic, publishers(watcher, topic))
         # the gripper's joints are in its namespace, prefixed
         assert set(watcher.joint_names) == {'right_forte_left_finger_joint',
                                             'right_forte_right_finger_joint'}
+
+
+@pytest.mark.launch(fixture=with_its_own_model_in_the_root)
+def test_the_checks_find_a_gripper_model_that_clashes_with_the_arms():
+    with watching() as watcher:
+        assert watcher.wait_for_lifecycle_state('gripper_driver', 'active', UP) == 'active'
+
+        assert wait_until(lambda: names(watcher).count('/robot_state_publisher') == 2, WAIT), \
+            sorted(names(watcher))
+        assert len(publishers(watcher, '/robot_description')) == 1   # one name, two nodes
+        assert len(watcher.get_publishers_info_by_topic('/robot_description')) == 2
