@@ -141,7 +141,7 @@ def test_the_gripper_launch_adds_nothing_the_arm_owns_and_its_view_finds_every_t
             sorted(names(watcher))
         assert len(names(watcher)) == len(set(names(watcher))), sorted(names(watcher))
         for topic, owners in ARM_TOPICS.items():  # (the arm's, once discovered)
-            assert wait_until(lambda: publishers(watcher, topic) == owners, 10.0), \
+            assert wait_until(lambda t=topic, o=owners: publishers(watcher, t) == o, 10.0), \
                 (topic, publishers(watcher, topic))
         # the gripper's joints are in its namespace, prefixed
         assert set(watcher.joint_names) == {'right_forte_left_finger_joint',
