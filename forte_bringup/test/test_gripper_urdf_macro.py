@@ -5,8 +5,10 @@ forward kinematics of this file (origin, then rotation about the joint axis) mov
 fingers. Checked for each expansion: one root, every link reachable from it, the pads
 reachable from the parent link, the movable joints exactly the joint names the gripper
 driver and the simulator publish on ``joint_states`` (with the same prefix), and the pads
-moving apart as theta opens. Also :mod:`forte_bringup.robot_model` (URDF for a prefix,
-robot_state_publisher detection).
+moving apart as theta opens, and the right finger joint the URDF mimic of the left (the
+joint the driver's command bridge takes). Also :mod:`forte_bringup.robot_model` (URDF for a
+prefix, robot_state_publisher detection). The macro's own checks (TCP, collision model,
+SRDF, ros2_control tag) are forte_description's tests.
 """
 from __future__ import annotations
 
@@ -187,6 +189,22 @@ def test_standalone_gripper_for_a_prefix(prefix):
     materials = {m.get('name') for m in tree.robot.findall('material')}
     assert materials and all(name.startswith(prefix + 'forte_') for name in materials)
     check_gripper(tree, prefix, parent=None)
+
+
+@pytest.mark.parametrize('prefix', ['', 'left_'])
+def test_the_mimic_joint_follows_the_joint_the_bridge_commands(prefix):
+    """The URDF's right finger joint mimics the left one (multiplier 1): the joint MoveIt
+    and ros2_control command is the driver's left finger, which moves both servos."""
+    tree = Tree(robot_model.expand_gripper(prefix))
+    left, right = contract.joint_names(prefix)
+    assert (left, right) == tuple(contract.prefixed(name, prefix) for name in (
+        driver_parameters.LEFT_JOINT, driver_parameters.RIGHT_JOINT))
+    mimics = {name: joint.find('mimic') for name, joint in tree.joints.items()
+              if joint.find('mimic') is not None}
+    assert set(mimics) == {right}
+    assert mimics[right].get('joint') == left
+    assert float(mimics[right].get('multiplier')) == 1.0
+    assert float(mimics[right].get('offset')) == 0.0
 
 
 def test_the_pre_expanded_urdf_is_the_gripper_without_prefix():

@@ -5,9 +5,9 @@
 
 Starts robot_state_publisher with the expanded ``urdf/forte_gripper.urdf.xacro`` (argument
 ``prefix``), joint_state_publisher_gui (``gui:=true``, default) or joint_state_publisher, and
-RViz with ``rviz/view_gripper.rviz`` (``rviz:=false`` leaves it out). The mimic of the
-right finger is not in the URDF (each finger has its own joint, as the drivers publish
-both): move the two sliders together to close the gripper.
+RViz with ``rviz/view_gripper.rviz`` (``rviz:=false`` leaves it out). The right finger
+joint is a mimic of the left in the URDF: joint_state_publisher(_gui) gives the left finger
+a slider and moves the right one with it.
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
