@@ -47,6 +47,31 @@ LEFT_FINGER_JOINT = 'forte_left_finger_joint'
 RIGHT_FINGER_JOINT = 'forte_right_finger_joint'
 JOINT_NAMES = (LEFT_FINGER_JOINT, RIGHT_FINGER_JOINT)
 
+#: Torque constant of the XM430-W350 finger servos [N m / A]: the stall torque over the stall
+#: current at 12 V, 4.1 N m / 2.3 A (ROBOTIS e-manual, DYNAMIXEL X series table; 11.1 V:
+#: 3.8 / 2.1 = 1.81, 14.8 V: 4.8 / 2.7 = 1.78). Each finger joint is its servo's horn angle
+#: (1:1), so joint torque = servo output torque. A linear model through zero: it ignores the
+#: no-load (friction) current and the torque-current nonlinearity near stall (the e-manual's
+#: performance graph is a line of about the same slope offset by roughly -0.2 N m, so at
+#: small currents the estimate is high by up to ~0.2 N m); good for caps and for comparing
+#: loads, not a torque sensor.
+SERVO_TORQUE_CONSTANT = 4.1 / 2.3
+
+
+def current_to_effort(current: float) -> float:
+    """Joint effort [N m] of a servo current [A] (:data:`SERVO_TORQUE_CONSTANT`, linear).
+
+    The sign is kept: ``joint_states`` reports both along theta (positive = opening), so a
+    finger squeezing an object has a negative current and a negative effort.
+    """
+    return float(current) * SERVO_TORQUE_CONSTANT
+
+
+def effort_to_current(effort: float) -> float:
+    """Servo current [A] of a joint effort [N m]: the inverse of :func:`current_to_effort`
+    (sign kept; a current cap is its magnitude)."""
+    return float(effort) / SERVO_TORQUE_CONSTANT
+
 
 def stamp_ns(stamp) -> int:
     """A ``builtin_interfaces/Time`` (anything with ``sec`` and ``nanosec``) in integer
@@ -150,5 +175,6 @@ def joint_names(prefix: str = '') -> tuple[str, str]:
 __all__ = ['BASE_FRAME', 'CHANNEL_NAMES', 'COUNTS_PER_FULL_SCALE', 'DISTAL', 'FINGER_CHANNELS',
            'FINGER_FRAMES', 'FINGER_NAMES', 'JOINT_NAMES', 'LEFT_FINGER_JOINT',
            'LOAD_CELL_FRAME', 'MIDDLE', 'N_CHANNELS', 'PAD_FRAMES', 'QUANTUM',
-           'RIGHT_FINGER_JOINT', 'ROOT', 'SAMPLE_PERIOD', 'SAMPLE_RATE', 'VALUE_RANGE',
-           'check_prefix', 'graph_namespace', 'joint_names', 'prefixed']
+           'RIGHT_FINGER_JOINT', 'ROOT', 'SAMPLE_PERIOD', 'SAMPLE_RATE', 'SERVO_TORQUE_CONSTANT',
+           'VALUE_RANGE', 'check_prefix', 'current_to_effort', 'effort_to_current',
+           'graph_namespace', 'joint_names', 'prefixed']

@@ -9,6 +9,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
+
 from forte_ros import contract
 
 CONTRACTS = (Path(__file__).resolve().parents[2] / 'docs' / 'contracts.md').read_text()
@@ -102,3 +104,22 @@ def test_split_ns_inverts_stamp_ns():
         assert 0 <= nanosec < 1_000_000_000
         assert contract.stamp_ns(Time(sec=sec, nanosec=nanosec)) == nanoseconds
     assert contract.split_ns(-1) == (-1, 999_999_999)
+
+
+def test_servo_torque_constant_is_the_documented_one():
+    """k = stall torque / stall current of the XM430-W350 at 12 V (e-manual: 4.1 N m at
+    2.3 A), the one conversion between servo current and joint effort."""
+    torque, current = re.search(r'k = ([\d.]+) N m / ([\d.]+) A = ([\d.]+) N m/A',
+                                CONTRACTS).groups()[:2]
+    assert contract.SERVO_TORQUE_CONSTANT == float(torque) / float(current)
+    assert contract.SERVO_TORQUE_CONSTANT == pytest.approx(1.7826, abs=1e-4)
+    # the other supply voltages of the same table agree within 2 %: 3.8 / 2.1 (+1.5 %), 4.8 / 2.7
+    for stall_torque, stall_current in ((3.8, 2.1), (4.8, 2.7)):
+        assert stall_torque / stall_current == pytest.approx(
+            contract.SERVO_TORQUE_CONSTANT, rel=0.02)
+    # known answers, sign kept (along theta: squeezing is negative)
+    assert contract.current_to_effort(2.3) == pytest.approx(4.1, rel=1e-12)
+    assert contract.current_to_effort(-0.39812) == pytest.approx(-0.709692, abs=1e-6)
+    assert contract.effort_to_current(1.0) == pytest.approx(0.560976, abs=1e-6)
+    assert contract.effort_to_current(contract.current_to_effort(0.123)) == \
+        pytest.approx(0.123, rel=1e-12)

@@ -38,6 +38,7 @@ PROFILE_OF_TOPIC = {
     'tactile/frames': qos.SENSOR_FRAMES, 'tactile/state': qos.TACTILE_STATE,
     'tactile/sensor_info': qos.SENSOR_INFO, 'load_cell/wrench': qos.LOAD_CELL,
     'gripper/command': qos.COMMANDS, 'joint_states': qos.COMMANDS,
+    'gripper/joint_commands': qos.COMMANDS,
     'arm/cmd_vel': qos.COMMANDS, 'grasp/state': qos.GRASP_STATE,
     'sim/ground_truth': qos.GROUND_TRUTH, '/diagnostics': qos.DIAGNOSTICS,
 }
