@@ -265,7 +265,7 @@ class BenchTwin:
         rows = (self._produced + np.arange(count)) % HISTORY_SAMPLES
         self._history[rows] = counts
         self._produced += count
-        self._drives = self._servo_drives(command)
+        self._drives = self._servo_drives()
         if self.on_truth is not None:
             self.on_truth(truth)
 
@@ -291,14 +291,14 @@ class BenchTwin:
         profile = units.velocity_units_to_radians_per_second(speed) or None
         return sum(angles) / len(angles), max_current, profile
 
-    def _servo_drives(self, command: float | None = None) -> dict[int, tuple[float, ...]]:
+    def _servo_drives(self) -> dict[int, tuple[float, ...]]:
         """Present position [pulse], velocity [pulse/s] and current [2.69 mA units] of
-        both servos from the scene."""
+        both servos from the scene (currents along theta, :attr:`Scene.joint_current_along_theta`:
+        a finger squeezing, commanded at or below its angle, pushes closed)."""
         theta = self.scene.joint_position
-        # along theta: a finger squeezing (commanded at or below its angle) pushes closed
-        squeeze = -1.0 if command is None or command <= theta else 1.0
         return {finger.servo_id: (
                     self._raw_position(finger, theta),
                     finger.direction * self.scene.joint_velocity * _PULSES_PER_RADIAN,
-                    finger.direction * squeeze * effort / units.current_units_to_amperes(1))
-                for finger, effort in zip(self.gripper.fingers, self.scene.joint_effort)}
+                    finger.direction * current / units.current_units_to_amperes(1))
+                for finger, current in zip(self.gripper.fingers,
+                                           self.scene.joint_current_along_theta)}

@@ -148,8 +148,17 @@ class Scene:
 
     @property
     def joint_effort(self) -> tuple[float, float]:
-        """Servo currents of the left and right finger servo [A]."""
+        """Servo currents of the left and right finger servo [A] (magnitudes)."""
         return (self._gripper.current[0], self._gripper.current[1])
+
+    @property
+    def joint_current_along_theta(self) -> tuple[float, float]:
+        """Servo currents of the left and right finger along theta [A], as a servo reports
+        them: the servo pushes toward its goal, so the current is negative (closing) while
+        the goal is at or below the angle (closing, squeezing, holding a grip) and positive
+        while it opens. ``joint_states`` effort is this x the servo torque constant."""
+        sign = -1.0 if self._gripper.command <= self.joint_position else 1.0
+        return (sign * self._gripper.current[0] + 0.0, sign * self._gripper.current[1] + 0.0)
 
     @property
     def time(self) -> float:

@@ -4,7 +4,8 @@ Serves the ``grasp`` action (forte_msgs/action/Grasp), publishes ``grasp/state``
 (GraspState, reliable + transient local, depth 1), ``gripper/command`` (ServoCommand) and
 ``arm/cmd_vel`` (TwistStamped, ``linear.z`` = lift speed, frame ``arm_frame_id``), subscribes
 ``tactile/state`` (TactileState), ``joint_states`` (JointState: mean position [rad] and
-mean effort = servo current [A] of ``joint_names``) and, optionally, ``arm/wrench``
+effort = joint torque [N m] of ``joint_names``, read as the servo current magnitude [A] the
+machine compares: :func:`forte_control.state_machine.joint_input`) and, optionally, ``arm/wrench``
 (WrenchStamped from a wrist force/torque sensor: the force the gripper exerts on the wrist,
 in a frame whose z axis points up, so a carried weight makes ``force.z`` negative; used by
 the lift verification when ``lift_check.use_wrench`` is true), and serves
@@ -88,6 +89,7 @@ from forte_control.state_machine.types import (
     PerceptionInput,
     ServoOutput,
     WrenchInput,
+    joint_input,
     perception_input,
 )
 from forte_msgs.action import Grasp
@@ -329,16 +331,11 @@ class GraspControllerNode(GripperCommandMixin, Node):
             self._wake_input_waiters()
 
     def _on_joint_state(self, msg: JointState) -> None:
-        indices = [i for i, name in enumerate(msg.name)
-                   if name in self._joint_names and i < len(msg.position)]
-        if not indices:
+        joint = joint_input(msg.name, msg.position, msg.effort, self._joint_names, math.nan)
+        if joint is None:
             self.counters['joint_states_without_joints'] += 1
             return
-        efforts = [msg.effort[i] for i in indices if i < len(msg.effort)]
-        self._joint = JointInput(
-            stamp=self._stamp(msg.header),
-            theta=float(sum(msg.position[i] for i in indices) / len(indices)),
-            effort=float(sum(efforts) / len(efforts)) if len(efforts) == len(indices) else None)
+        self._joint = replace(joint, stamp=self._stamp(msg.header))
         if self._input_waiters:
             self._wake_input_waiters()
 

@@ -138,7 +138,7 @@ class GripperCommandMixin:
             return
         joint = self._joint
         if move.observe(None if joint is None else joint.theta,
-                        None if joint is None else joint.effort, self._now()):
+                        None if joint is None else joint.torque, self._now()):
             running.done.set_result(None)
         else:
             running.handle.publish_feedback(

@@ -2,18 +2,18 @@
 other action clients.
 
 - ``gripper_cmd``: control_msgs/action/GripperCommand. ``command.position`` = gripper angle
-  theta [rad], ``command.max_effort`` = servo current cap [A] (0 = the controller's
-  ``max_current``). Result and feedback: ``position`` = measured theta [rad], ``effort`` =
-  measured servo current [A] (0 when the driver reports none), ``reached_goal``,
-  ``stalled``.
+  theta [rad], ``command.max_effort`` = joint torque cap [N m], converted to the servo
+  current cap (0 = the controller's ``max_current``). Result and feedback: ``position`` =
+  measured theta [rad], ``effort`` = measured joint effort [N m] along theta (negative while
+  squeezing; 0 when the driver reports none), ``reached_goal``, ``stalled``.
 - ``parallel_gripper_cmd``: control_msgs/action/ParallelGripperCommand (Jazzy's interface
   for parallel grippers: MoveIt's ``ParallelGripperCommand`` controller type calls it,
   ros2_control's parallel_gripper_controller serves it). ``command`` (JointState) names
   one finger joint or both (the controller's ``joint_names``), position = theta [rad] (the
   same for both), optional ``velocity`` = profile velocity [rad/s], optional ``effort`` =
-  servo current cap [A]. Result and feedback ``state``: every finger joint at the measured
-  theta (the mean of the two, on which the move is judged) and the measured servo current
-  as effort [A] where the driver reports it.
+  joint torque cap [N m]. Result and feedback ``state``: every finger joint at the measured
+  theta (the mean of the two, on which the move is judged) and the measured joint effort
+  [N m] where the driver reports it.
 
 Both run the same move (:class:`forte_control.ros.gripper_command.GripperCommandMixin`);
 the goal mapping and its checks are pure (:mod:`forte_control.gripper_goal`). Each action
@@ -96,7 +96,7 @@ def joint_state(move: GripperMove, joint_names: Sequence[str], stamp: Any) -> Jo
     Parameters
     ----------
     move : GripperMove
-        The move (its latest measured angle and current).
+        The move (its latest measured angle and joint effort).
     joint_names : sequence of str
         The controller's finger joints.
     stamp : builtin_interfaces/Time
@@ -106,7 +106,7 @@ def joint_state(move: GripperMove, joint_names: Sequence[str], stamp: Any) -> Jo
     -------
     sensor_msgs/JointState
         Each finger joint at the measured theta [rad] (no position before the first joint
-        state), the measured servo current as effort [A] when reported, no velocity.
+        state), the measured joint effort [N m] when reported, no velocity.
     """
     state = JointState()
     state.header.stamp = stamp

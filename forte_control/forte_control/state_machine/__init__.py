@@ -67,11 +67,12 @@ from forte_control.state_machine.types import Outcome as Outcome
 from forte_control.state_machine.types import PerceptionInput as PerceptionInput
 from forte_control.state_machine.types import ServoOutput as ServoOutput
 from forte_control.state_machine.types import WrenchInput as WrenchInput
+from forte_control.state_machine.types import joint_input as joint_input
 from forte_control.state_machine.types import perception_input as perception_input
 
 __all__ = [
     'ACTIVE_STATES', 'PAPER_SLIP_INCREMENT', 'ControlInputs', 'ControlOutputs', 'Controller',
     'ControllerParams', 'DropDetector', 'FaultFlag', 'GraspGoal', 'GraspState',
     'GraspStateMachine', 'JointInput', 'LiftCheckParams', 'Outcome', 'PerceptionInput',
-    'ServoOutput', 'WrenchInput', 'perception_input',
+    'ServoOutput', 'WrenchInput', 'joint_input', 'perception_input',
 ]

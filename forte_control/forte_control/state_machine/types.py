@@ -6,14 +6,17 @@ Python, no rclpy.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import IntEnum, IntFlag
 from typing import Any
 
+from forte_ros.contract import effort_to_current
+
 __all__ = [
     'ACTIVE_STATES', 'PAPER_SLIP_INCREMENT', 'ControlInputs', 'ControlOutputs', 'Controller',
     'FaultFlag', 'GraspGoal', 'GraspState', 'JointInput', 'Outcome', 'PerceptionInput',
-    'ServoOutput', 'WrenchInput', 'perception_input',
+    'ServoOutput', 'WrenchInput', 'joint_input', 'perception_input',
 ]
 
 # ---------------------------------------------------------------------------------------
@@ -147,7 +150,42 @@ class JointInput:
     stamp: float                 # sample time [s]
     theta: float                 # servo angle [rad], 0 = fully closed
     servo_error: bool = False    # hardware error reported by the driver
-    effort: float | None = None  # servo current [A] (mean of the servos), None = not reported
+    effort: float | None = None  # servo current [A], mean magnitude; None = not reported
+    torque: float | None = None  # joint effort [N m], mean along theta; for reports only
+
+
+def joint_input(names: Sequence[str], positions: Sequence[float], efforts: Sequence[float],
+                joint_names: Sequence[str], stamp: float) -> JointInput | None:
+    """The :class:`JointInput` of a sensor_msgs/JointState's fields (no message import).
+
+    Parameters
+    ----------
+    names, positions, efforts : sequence
+        The message's ``name``, ``position`` [rad] and ``effort`` [N m]: the joint torque
+        along theta (``joint_states`` of the gripper driver and the simulator, docs/contracts.md).
+    joint_names : sequence of str
+        The gripper's finger joints to average.
+    stamp : float
+        The sample time [s].
+
+    Returns
+    -------
+    JointInput or None
+        ``theta`` = mean position of the named finger joints; ``effort`` = servo current [A]
+        = mean |effort| / the servo torque constant (the machine compares current
+        magnitudes: ``loaded_current``), ``torque`` = mean effort [N m], both None unless
+        every finger joint reports an effort; None when no finger joint is in the message.
+    """
+    indices = [i for i, name in enumerate(names) if name in joint_names and i < len(positions)]
+    if not indices:
+        return None
+    theta = float(sum(positions[i] for i in indices) / len(indices))
+    torques = [float(efforts[i]) for i in indices if i < len(efforts)]
+    if len(torques) != len(indices):
+        return JointInput(stamp=stamp, theta=theta)
+    current = effort_to_current(sum(abs(torque) for torque in torques) / len(torques))
+    return JointInput(stamp=stamp, theta=theta, effort=current,
+                      torque=sum(torques) / len(torques))
 
 
 @dataclass(frozen=True)

@@ -40,6 +40,7 @@ from forte_msgs.action import Grasp
 from forte_msgs.msg import GraspState as GraspStateMsg
 from forte_msgs.msg import ServoCommand, TactileState
 from forte_msgs.srv import ResetFault
+from forte_ros.contract import current_to_effort
 from forte_ros.qos import COMMANDS, DIAGNOSTICS, GRASP_STATE, TACTILE_STATE, reliable
 from forte_ros.testing import gripper_goal
 
@@ -55,6 +56,7 @@ FAST = {
 TICK = 0.01          # simulated time per world tick (one perception update) [s]
 GAIN = 0.5           # tactile response of each channel to the squeeze [normalised / rad]
 FREE_CURRENT = 0.05  # servo current while moving freely [A]
+FREE_EFFORT = -current_to_effort(FREE_CURRENT)  # its joint effort along theta [N m]
 CURRENT_GAIN = 2.0   # current rise per rad of squeeze [A/rad]
 WALL_LIMIT = 120.0   # a wait that lasts this long in wall time means a hang [s]
 
@@ -137,7 +139,9 @@ class FakeWorld(Node):
             joints.name = ['forte_left_finger_joint', 'forte_right_finger_joint']
             joints.position = [self.theta, self.theta]
             current = FREE_CURRENT + (CURRENT_GAIN * squeeze if in_contact else 0.0)
-            joints.effort = [current, current]
+            # joint_states effort: joint torque [N m] along theta, as the driver reports it
+            # (the servo pushes toward closing: negative)
+            joints.effort = [-current_to_effort(current)] * 2
             self.joint_pub.publish(joints)
         wrench = WrenchStamped()
         wrench.header.stamp = stamp
@@ -553,7 +557,9 @@ def test_gripper_command_action(harness):
     assert result.reached_goal and not result.stalled
     assert result.position == pytest.approx(0.3, abs=0.03)
     command = harness.world.servo_log[-1][1]
-    assert command.position == pytest.approx(0.3) and command.max_current == 0.5
+    # max_effort is joint torque: 0.5 N m / 1.7826 N m/A = 0.2805 A of current cap
+    assert command.position == pytest.approx(0.3)
+    assert command.max_current == pytest.approx(0.280488, abs=1e-6)
     # refused while a grasp runs
     harness.world.object_present = True
     harness.world.theta = 0.7

@@ -1,7 +1,9 @@
 """One finger's state in SI units, decoded from the state block a sync read returns (pure).
 
-Velocities and currents are reported along theta (positive = opening), so a finger
-squeezing an object reports a negative effort on both fingers.
+Velocities, currents and efforts are reported along theta (positive = opening), so a finger
+squeezing an object reports a negative current and effort on both fingers. The effort is the
+joint torque [N m] = servo current x :data:`forte_ros.contract.SERVO_TORQUE_CONSTANT` (the
+finger joint is the servo horn, 1:1).
 """
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import units
 from forte_driver.dynamixel.gripper_config import FingerConfig
 from forte_driver.dynamixel.status_errors import DynamixelError
+from forte_ros.contract import current_to_effort
 
 
 @dataclass(frozen=True)
@@ -24,6 +27,9 @@ class FingerState:
     velocity : float
         Angular velocity [rad/s].
     effort : float
+        Joint torque [N m]: ``current`` x the servo torque constant (linear model,
+        :data:`forte_ros.contract.SERVO_TORQUE_CONSTANT`), sign along theta.
+    current : float
         Motor current [A] (Present Current x 2.69 mA, sign along theta).
     temperature : float
         Internal temperature [degC].
@@ -40,6 +46,7 @@ class FingerState:
     theta: float
     velocity: float
     effort: float
+    current: float
     temperature: float
     input_voltage: float
     raw_position: int
@@ -76,11 +83,13 @@ def decode_finger_state(finger: FingerConfig, block: bytes) -> FingerState:
     raw_position = item(ct.PRESENT_POSITION)
     raw_velocity = item(ct.PRESENT_VELOCITY)
     raw_current = item(ct.PRESENT_CURRENT)
+    current = finger.direction * units.current_units_to_amperes(raw_current) + 0.0
     return FingerState(
         theta=finger.raw_to_theta(raw_position) + 0.0,  # + 0.0: no negative zero
         velocity=finger.direction * units.velocity_units_to_radians_per_second(
             raw_velocity) + 0.0,
-        effort=finger.direction * units.current_units_to_amperes(raw_current) + 0.0,
+        effort=current_to_effort(current) + 0.0,
+        current=current,
         temperature=float(item(ct.PRESENT_TEMPERATURE)),
         input_voltage=units.voltage_units_to_volts(item(ct.PRESENT_INPUT_VOLTAGE)),
         raw_position=raw_position,

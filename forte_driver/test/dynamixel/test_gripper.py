@@ -192,8 +192,11 @@ def test_velocity_and_effort_units_along_theta(bus, gripper):
         _read_state(gripper)))
     assert squeeze, 'the fingers never squeezed the obstacle'
     expected = -148 * units.AMPERES_PER_CURRENT_UNIT  # 0.4 A -> 148 units -> 0.39812 A
-    assert squeeze['right'].effort == pytest.approx(expected, rel=1e-9)
-    assert squeeze['left'].effort == pytest.approx(expected, rel=1e-9)
+    assert squeeze['right'].current == pytest.approx(expected, rel=1e-9)
+    assert squeeze['left'].current == pytest.approx(expected, rel=1e-9)
+    # effort = joint torque along theta: -0.39812 A x (4.1 / 2.3) N m/A = -0.70969 N m
+    assert squeeze['right'].effort == pytest.approx(-0.70969, abs=1e-5)
+    assert squeeze['left'].effort == pytest.approx(-0.70969, abs=1e-5)
     assert squeeze['right'].raw_position == 2100
 
 

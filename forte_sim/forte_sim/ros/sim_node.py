@@ -7,8 +7,9 @@ Thin ROS shell over :func:`forte_sim.make_scene`:
   the sample time of the first row (simulation start + sample index / 2 kHz);
 * publishes ``joint_states`` (sensor_msgs/JointState: forte_left_finger_joint,
   forte_right_finger_joint, each with ``prefix`` prepended; position [rad], velocity
-  [rad/s], effort = servo current [A]) and ``sim/ground_truth`` (forte_msgs/SimGroundTruth)
-  once per batch;
+  [rad/s], effort = joint torque [N m] along theta, the servo current x the torque constant
+  of ``forte_ros.contract``, as the gripper driver reports it: negative while squeezing) and
+  ``sim/ground_truth`` (forte_msgs/SimGroundTruth) once per batch;
 * subscribes ``gripper/command`` (forte_msgs/ServoCommand) and ``arm/cmd_vel``
   (geometry_msgs/TwistStamped, only ``twist.linear.z`` is used: the arm lifts vertically);
   the arm stops when no velocity command arrived for ``cmd_vel_timeout`` simulated seconds;
@@ -61,6 +62,7 @@ from forte_ros.contract import (
     LOAD_CELL_FRAME,
     RIGHT_FINGER_JOINT,
     SAMPLE_PERIOD,
+    current_to_effort,
     joint_names,
     prefixed,
 )
@@ -385,7 +387,8 @@ class SimNode(ForteLifecycleNode):
         position = scene.joint_position
         joints.position = [position, position]
         joints.velocity = [scene.joint_velocity, scene.joint_velocity]
-        joints.effort = list(scene.joint_effort)
+        joints.effort = [current_to_effort(current)
+                         for current in scene.joint_current_along_theta]
         self._joint_publisher.publish(joints)
         self._truth_publisher.publish(ground_truth_message(
             truth, scene, self.get_parameter('object').value, last_stamp, self._frame_id))

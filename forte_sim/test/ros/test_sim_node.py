@@ -15,6 +15,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from forte_msgs.msg import SensorInfo, ServoCommand, SimGroundTruth, TactileFrames
+from forte_ros.contract import SERVO_TORQUE_CONSTANT
 from forte_ros.qos import COMMANDS, SENSOR_INFO, reliable
 from forte_ros.sensor_identity import SIMULATED_SENSOR, SensorIdentity
 from forte_ros.testing import SpinningGraph, wait_until
@@ -113,7 +114,10 @@ def test_servo_command_moves_the_joint_and_the_arm_lifts(harness_factory):
     assert harness.wait(closed)
     # the servo stalls at the jar, which is wider than the commanded gap
     assert harness.wait(lambda: harness.truth[-1].finger_force[0] > 1.0)
-    assert harness.joints[-1].effort[0] > 0.05
+    # effort = joint torque along theta [N m]: squeezing the jar pushes closed (negative),
+    # k x the scene's servo current (both fingers)
+    current = harness.joints[-1].effort[0] / SERVO_TORQUE_CONSTANT
+    assert current < -0.05
     lift = TwistStamped()
     lift.twist.linear.z = 0.02
 
