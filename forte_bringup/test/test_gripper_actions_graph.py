@@ -6,11 +6,12 @@ controller over DDS:
 
 - ``parallel_gripper_cmd`` (control_msgs/ParallelGripperCommand) goals naming both finger
   joints, and one, succeed: the simulated gripper's ``joint_states`` reach the angle, the
-  servo command carries the goal's effort (current cap) and velocity (profile velocity),
-  the result's ``state`` names both joints at the measured angle with the servo current as
-  effort, ``reached_goal`` true, ``stalled`` false; feedback comes while it moves;
+  servo command carries the goal's effort (joint torque [N m], as a current cap [A] =
+  effort / the servo torque constant) and velocity (profile velocity), the result's
+  ``state`` names both joints at the measured angle with the joint effort [N m],
+  ``reached_goal`` true, ``stalled`` false; feedback comes while it moves;
 - ``gripper_cmd`` (control_msgs/GripperCommand) goals succeed the same way (result
-  ``position`` = measured angle, ``effort`` = servo current);
+  ``position`` = measured angle, ``effort`` = joint effort [N m]);
 - invalid goals (unknown joint, unequal finger positions, NaN, out of range, unequal
   velocities, negative effort) are rejected, and the controller's log on ``/rosout`` gives
   the reason of each.
@@ -42,6 +43,7 @@ from launch.actions import IncludeLaunchDescription  # noqa: E402
 from launch.launch_description_sources import PythonLaunchDescriptionSource  # noqa: E402
 
 from forte_bringup.testing import Watcher, watching  # noqa: E402
+from forte_ros.contract import effort_to_current  # noqa: E402
 from forte_ros.testing import gripper_goal, parallel_gripper_goal, wait_until  # noqa: E402
 
 GripperCommand = control_actions.GripperCommand
@@ -167,11 +169,12 @@ def test_parallel_gripper_command_moves_the_simulated_gripper(probe):
     assert len(state.effort) == 2 and all(math.isfinite(e) for e in state.effort), state
     assert wait_until(lambda: at(watcher, 0.8), 10.0), (start, watcher.joint_positions)
     command = seen.servo[-1]
+    # effort 0.5 N m -> current cap 0.5 / (4.1 / 2.3) = 0.2805 A
     assert (command.position, command.max_current, command.profile_velocity) == \
-        pytest.approx((0.8, 0.5, 0.6)), command
+        pytest.approx((0.8, effort_to_current(0.5), 0.6)), command
     assert feedback and list(feedback[-1].state.name) == [LEFT, RIGHT]
     print(f'\nparallel_gripper_cmd 0.8 rad: joints {start} -> {watcher.joint_positions}, '
-          f'result {list(state.position)} rad, {list(state.effort)} A, '
+          f'result {list(state.position)} rad, {list(state.effort)} N m, '
           f'{len(feedback)} feedback messages')
     # one finger joint names the gripper angle too
     goal = parallel_gripper_goal([RIGHT], [0.7])
@@ -195,7 +198,8 @@ def test_gripper_command_moves_the_simulated_gripper(probe):
     assert math.isfinite(result.effort)
     assert wait_until(lambda: at(watcher, 0.85), 10.0), watcher.joint_positions
     command = seen.servo[-1]
-    assert (command.position, command.max_current) == pytest.approx((0.85, 0.4)), command
+    assert (command.position, command.max_current) == \
+        pytest.approx((0.85, effort_to_current(0.4))), command
 
 
 @pytest.mark.slow
@@ -212,11 +216,12 @@ def test_invalid_goals_are_rejected_with_the_reason(probe):
         (parallel, parallel_gripper_goal([LEFT, RIGHT], [0.5, 0.6]), 'positions differ'),
         (parallel, parallel_gripper_goal([LEFT], [math.nan]), 'nan rad is not a finite number'),
         (parallel, parallel_gripper_goal([LEFT], [-0.3]), 'position -0.3000 rad outside'),
+        (gripper, gripper_goal(2.0), 'position 2.0000 rad outside [0.0000, 1.0000] rad'),
         (parallel, parallel_gripper_goal([LEFT, RIGHT], [0.5, 0.5], velocity=[0.2, 0.3]),
          'unequal velocity values'),
         (parallel, parallel_gripper_goal([], []), 'no joint named'),
         (gripper, gripper_goal(math.inf), 'inf rad is not a finite number'),
-        (gripper, gripper_goal(0.5, max_effort=-1.0), 'max_effort -1.0 A is negative'),
+        (gripper, gripper_goal(0.5, max_effort=-1.0), 'max_effort -1.0 N m is negative'),
     ]
     for (action_type, name), goal, reason in refused:
         accepted, _, _, _ = send(watcher, action_type, name, goal)

@@ -13,10 +13,14 @@ The mapping (docs/control.md, "Gripper position actions and MoveIt"):
   together: one servo command drives both). ``GripperCommand.command.position`` is theta.
   A ``ParallelGripperCommand`` goal (a sensor_msgs/JointState) names one finger joint or
   both; both must then ask for the same angle (within :data:`POSITION_MATCH`). Allowed:
-  ``min_angle`` (the controller's most closed command) to :data:`MAX_POSITION`.
-- **effort**: the most servo current the move may use [A], like
-  ``GripperCommand.command.max_effort``: 0 (or none given) = the controller's
-  ``max_current``; a larger value is capped at ``max_current``.
+  ``min_angle`` (the controller's most closed command) to ``max_angle`` (the joint's upper
+  limit, 1.0 rad: the URDF's and the gripper driver's); a goal beyond is rejected at once,
+  the reason naming the limit.
+- **effort**: the most joint torque the move may use [N m] (the finger joint is the servo
+  horn, 1:1), like ``GripperCommand.command.max_effort``; converted to the servo current
+  cap with the servo torque constant (:func:`forte_ros.contract.effort_to_current`, 4.1 N m
+  / 2.3 A: 1.0 N m -> 0.561 A). 0 (or none given) = the controller's ``max_current``; a
+  larger value is capped at ``max_current``.
 - **velocity** (ParallelGripperCommand only): the servo profile velocity [rad/s]; 0 (or
   none given) = the controller's ``release_speed``; capped at :data:`MAX_VELOCITY`.
 - ``velocity`` and ``effort`` hold no value, one value, or one per named joint (all
@@ -32,14 +36,12 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from forte_control.parameters import HARD_MAX_ANGLE, HARD_MAX_SERVO_SPEED
+from forte_control.parameters import HARD_MAX_SERVO_SPEED
 from forte_control.state_machine import ControllerParams, ServoOutput
+from forte_ros.contract import effort_to_current
 
-__all__ = ['MAX_POSITION', 'MAX_VELOCITY', 'POSITION_MATCH', 'STALL_MOTION', 'GripperGoal',
-           'GripperMove', 'gripper_command_goal', 'parallel_gripper_goal', 'position_problem']
-
-#: Most open position a goal may ask for [rad] (the controller's hard angle limit).
-MAX_POSITION = HARD_MAX_ANGLE
+__all__ = ['MAX_VELOCITY', 'POSITION_MATCH', 'STALL_MOTION', 'GripperGoal', 'GripperMove',
+           'gripper_command_goal', 'parallel_gripper_goal', 'position_problem']
 #: Fastest profile velocity a goal gets [rad/s] (a faster request is capped).
 MAX_VELOCITY = HARD_MAX_SERVO_SPEED
 #: Largest difference between the positions a ParallelGripperCommand goal gives its two
@@ -58,7 +60,7 @@ class GripperGoal:
     position : float
         Gripper angle theta to reach [rad], 0 = fully closed.
     max_effort : float
-        Most servo current the move may use [A]; 0 = the controller's ``max_current``.
+        Most joint torque the move may use [N m]; 0 = the controller's ``max_current``.
     max_velocity : float
         Servo profile velocity [rad/s]; 0 = the controller's ``release_speed``.
     """
@@ -78,12 +80,13 @@ class GripperGoal:
         Returns
         -------
         ServoOutput
-            ``position``; current ``min(max_effort, max_current)`` (``max_current`` when
-            ``max_effort`` is 0); profile velocity ``min(max_velocity, MAX_VELOCITY)``
-            (``release_speed`` when ``max_velocity`` is 0).
+            ``position``; current ``min(max_effort / k, max_current)`` [A] with k the
+            servo torque constant [N m/A] (``max_current`` when ``max_effort`` is 0);
+            profile velocity ``min(max_velocity, MAX_VELOCITY)`` (``release_speed`` when
+            ``max_velocity`` is 0).
         """
-        current = min(self.max_effort, params.max_current) if self.max_effort > 0.0 \
-            else params.max_current
+        current = min(effort_to_current(self.max_effort), params.max_current) \
+            if self.max_effort > 0.0 else params.max_current
         speed = min(self.max_velocity, MAX_VELOCITY) if self.max_velocity > 0.0 \
             else params.release_speed
         return ServoOutput(position=self.position, max_current=current, profile_velocity=speed)
@@ -93,9 +96,9 @@ def position_problem(position: float, params: ControllerParams) -> str:
     """Why ``position`` [rad] cannot be a gripper goal ('' if it can)."""
     if not math.isfinite(position):
         return f'position {position} rad is not a finite number'
-    if not params.min_angle <= position <= MAX_POSITION:
+    if not params.min_angle <= position <= params.max_angle:
         return (f'position {position:.4f} rad outside [{params.min_angle:.4f}, '
-                f'{MAX_POSITION:.4f}] rad (min_angle .. fully open)')
+                f'{params.max_angle:.4f}] rad (min_angle .. max_angle, the joint limit)')
     return ''
 
 
@@ -116,9 +119,9 @@ def gripper_command_goal(position: float, max_effort: float,
     position : float
         Gripper angle theta [rad].
     max_effort : float
-        Servo current cap [A], 0 = the controller's ``max_current``.
+        Joint torque cap [N m], 0 = the controller's ``max_current``.
     params : ControllerParams
-        The controller's parameters (``min_angle``).
+        The controller's parameters (``min_angle``, ``max_angle``).
 
     Returns
     -------
@@ -128,7 +131,7 @@ def gripper_command_goal(position: float, max_effort: float,
         Why it was refused ('' if not).
     """
     problem = position_problem(float(position), params) or \
-        _limit_problem(float(max_effort), 'max_effort', 'A')
+        _limit_problem(float(max_effort), 'max_effort', 'N m')
     if problem:
         return None, problem
     return GripperGoal(float(position), max_effort=float(max_effort)), ''
@@ -175,12 +178,12 @@ def parallel_gripper_goal(names: Sequence[str], positions: Sequence[float],
     Parameters
     ----------
     names, positions, velocities, efforts : sequence
-        The ``name``, ``position`` [rad], ``velocity`` [rad/s] and ``effort`` [A] of the
+        The ``name``, ``position`` [rad], ``velocity`` [rad/s] and ``effort`` [N m] of the
         goal's ``command``.
     joint_names : sequence of str
         The controller's finger joints (its ``joint_names`` with its ``prefix``).
     params : ControllerParams
-        The controller's parameters (``min_angle``).
+        The controller's parameters (``min_angle``, ``max_angle``).
 
     Returns
     -------
@@ -205,7 +208,7 @@ def parallel_gripper_goal(names: Sequence[str], positions: Sequence[float],
     velocity, problem = _common_value(velocities, names, 'velocity', 'rad/s')
     if problem:
         return None, problem
-    effort, problem = _common_value(efforts, names, 'effort', 'A')
+    effort, problem = _common_value(efforts, names, 'effort', 'N m')
     if problem:
         return None, problem
     return GripperGoal(float(positions[0]), max_effort=effort, max_velocity=velocity), ''
@@ -229,7 +232,8 @@ class GripperMove:
     theta : float
         Joint angle at the latest check [rad]; NaN before the first joint state.
     effort : float
-        Servo current at the latest check [A]; NaN when not reported.
+        Joint effort at the latest check [N m] (mean of the finger joints, along theta:
+        negative while squeezing); NaN when not reported.
     stalled : bool
         The joint did not move between the last two checks.
     finished : bool
@@ -269,7 +273,7 @@ class GripperMove:
         theta : float or None
             Latest joint angle [rad] (None: no joint state yet).
         effort : float or None
-            Latest servo current [A] (None: not reported).
+            Latest joint effort [N m] (None: not reported).
         now : float
             Current time [s], on the clock of ``deadline``.
 

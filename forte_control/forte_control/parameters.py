@@ -78,6 +78,10 @@ CONTROLLER_PARAMETERS: dict[str, ParameterSpec] = _field_table((
           'reaches this while closing (a very soft object loads too slowly for the contact '
           'flag); 0: flags only', 0.0, 2.0),
     _spec('min_angle', float, 'rad', 'most closed servo command allowed', 0.0, HARD_MAX_ANGLE),
+    _spec('max_angle', float, 'rad', 'most open servo command allowed: the finger joints\' '
+          'upper limit (the URDF limit and the gripper driver\'s theta_max, 1.0 rad by '
+          'default); gripper position goals beyond it are rejected', MIN_ANGLE_STEP,
+          HARD_MAX_ANGLE),
     _spec('no_contact_settle', float, 's', 'wait at min_angle before NO_CONTACT', 0.0, 10.0),
     _spec('ramp_lead', float, 's', 'the closing and loading ramps run at most this far ahead '
           'of the latest perception sample and wait while perception trails by more (the '

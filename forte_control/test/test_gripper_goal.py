@@ -11,7 +11,6 @@ import math
 import pytest
 
 from forte_control.gripper_goal import (
-    MAX_POSITION,
     MAX_VELOCITY,
     POSITION_MATCH,
     GripperGoal,
@@ -21,6 +20,7 @@ from forte_control.gripper_goal import (
     position_problem,
 )
 from forte_control.state_machine import ControllerParams, ServoOutput
+from forte_ros.contract import SERVO_TORQUE_CONSTANT
 
 LEFT, RIGHT = 'forte_left_finger_joint', 'forte_right_finger_joint'
 JOINTS = (LEFT, RIGHT)
@@ -72,14 +72,17 @@ def test_joint_names_follow_the_controller_prefix():
                                           f'{RIGHT} 0.6000', 'same gripper angle']),
     ([LEFT], [math.nan], [], [], [LEFT, 'nan rad is not a finite number']),
     ([RIGHT], [math.inf], [], [], [RIGHT, 'inf rad is not a finite number']),
-    ([LEFT], [-0.1], [], [], ['position -0.1000 rad outside [0.0000, 3.1416]']),
-    ([LEFT], [4.0], [], [], ['outside', 'fully open']),
+    ([LEFT], [-0.1], [], [], ['position -0.1000 rad outside [0.0000, 1.0000]']),
+    # beyond the joint limit (URDF and driver: 1.0 rad), not only beyond the servo's travel
+    ([LEFT], [2.0], [], [], ['position 2.0000 rad outside [0.0000, 1.0000] rad',
+                             'max_angle, the joint limit']),
+    ([LEFT], [1.0001], [], [], ['outside [0.0000, 1.0000]']),
     ([LEFT], [0.5], [math.nan], [], ['velocity nan rad/s is not a finite number']),
     ([LEFT], [0.5], [-0.2], [], ['velocity -0.2 rad/s is negative']),
-    ([LEFT], [0.5], [], [math.inf], ['effort inf A is not a finite number']),
-    ([LEFT], [0.5], [], [-1.0], ['effort -1.0 A is negative']),
+    ([LEFT], [0.5], [], [math.inf], ['effort inf N m is not a finite number']),
+    ([LEFT], [0.5], [], [-1.0], ['effort -1.0 N m is negative']),
     ([LEFT, RIGHT], [0.5, 0.5], [0.2, 0.3], [], ['unequal velocity values 0.2, 0.3 rad/s']),
-    ([LEFT, RIGHT], [0.5, 0.5], [], [0.5, 0.4], ['unequal effort values 0.5, 0.4 A']),
+    ([LEFT, RIGHT], [0.5, 0.5], [], [0.5, 0.4], ['unequal effort values 0.5, 0.4 N m']),
     ([LEFT], [0.5], [], [0.5, 0.5], ['2 effort values for 1 joint(s)']),
     ([LEFT, RIGHT], [0.5, 0.5], [0.1, 0.1, 0.1], [], ['3 velocity values for 2 joint(s)']),
 ])
@@ -91,13 +94,23 @@ def test_invalid_parallel_goals_are_refused_with_the_reason(names, positions, ve
         assert word in reason, reason
 
 
-def test_the_range_follows_min_angle():
+def test_the_range_follows_min_angle_and_max_angle():
     params = ControllerParams(min_angle=0.2)
     goal, reason = parallel([LEFT], [0.1], params=params)
-    assert goal is None and '[0.2000, 3.1416]' in reason
+    assert goal is None and '[0.2000, 1.0000]' in reason
     assert parallel([LEFT], [0.2], params=params)[0] is not None
-    assert parallel([LEFT], [MAX_POSITION], params=params)[0] is not None
+    assert parallel([LEFT], [params.max_angle], params=params)[0] is not None
     assert position_problem(0.5, params) == ''
+    # a gripper whose joint opens further (another URDF, the driver's theta_max raised)
+    wide = ControllerParams(max_angle=1.5, open_angle=1.2)
+    assert parallel([LEFT], [1.5], params=wide)[0] is not None
+    assert 'outside [0.0000, 1.5000]' in parallel([LEFT], [1.6], params=wide)[1]
+
+
+def test_max_angle_is_the_joint_limit_and_bounds_open_angle():
+    assert ControllerParams().max_angle == 1.0  # the URDF's and the driver's theta_max
+    assert ControllerParams(open_angle=1.2).problems() == [
+        'open_angle=1.2 rad above max_angle=1.0 rad (the joint limit)']
 
 
 # -- GripperCommand ---------------------------------------------------------------------------
@@ -109,7 +122,7 @@ def test_gripper_command_goal_is_the_same_mapping():
     goal, reason = gripper_command_goal(-0.5, 0.0, PARAMS)
     assert goal is None and 'outside' in reason
     goal, reason = gripper_command_goal(0.5, -1.0, PARAMS)
-    assert goal is None and 'max_effort -1.0 A is negative' in reason
+    assert goal is None and 'max_effort -1.0 N m is negative' in reason
     # both actions give the same goal for the same request
     assert gripper_command_goal(0.7, 0.4, PARAMS)[0] == parallel([LEFT], [0.7],
                                                                  efforts=[0.4])[0]
@@ -120,8 +133,14 @@ def test_servo_command_caps_effort_and_velocity():
     params = ControllerParams(max_current=1.0, release_speed=0.5)
     assert GripperGoal(0.4).servo(params) == ServoOutput(0.4, max_current=1.0,
                                                          profile_velocity=0.5)
-    assert GripperGoal(0.4, max_effort=0.3, max_velocity=0.2).servo(params) == ServoOutput(
-        0.4, max_current=0.3, profile_velocity=0.2)
+    # effort is joint torque [N m]: 0.5 N m / (4.1 N m / 2.3 A) = 0.28049 A of current cap
+    servo = GripperGoal(0.4, max_effort=0.5, max_velocity=0.2).servo(params)
+    assert servo.max_current == pytest.approx(0.280488, abs=1e-6)
+    assert servo.max_current == pytest.approx(0.5 / SERVO_TORQUE_CONSTANT, rel=1e-12)
+    assert (servo.position, servo.profile_velocity) == (0.4, 0.2)
+    # 4.1 N m is the servo's stall torque at 12 V: its stall current, 2.3 A, then capped
+    assert GripperGoal(0.4, max_effort=4.1).servo(
+        ControllerParams(max_current=2.3)).max_current == pytest.approx(2.3, rel=1e-12)
     # a larger request is capped: the goal's values are maxima the move must not exceed
     assert GripperGoal(0.4, max_effort=5.0, max_velocity=10.0).servo(params) == ServoOutput(
         0.4, max_current=1.0, profile_velocity=MAX_VELOCITY)

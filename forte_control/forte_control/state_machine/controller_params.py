@@ -29,6 +29,7 @@ class ControllerParams:
     contact_mode: str = 'either'            # 'either' finger (paper: any channel) or 'both'
     contact_level: float = 0.005            # or mean |tared filtered| this high (0: off) [-]
     min_angle: float = 0.0                  # most closed command allowed [rad]
+    max_angle: float = 1.0                  # most open command allowed: the joint limit [rad]
     no_contact_settle: float = 0.3          # wait at min_angle before NO_CONTACT [s]
     ramp_lead: float = 0.05                 # closing/loading ramp ahead of perception, max [s]
     # loading
@@ -107,6 +108,9 @@ class ControllerParams:
         if self.min_angle >= self.open_angle:
             out.append(f'min_angle={self.min_angle} rad must be below open_angle='
                        f'{self.open_angle} rad')
+        if self.open_angle > self.max_angle:
+            out.append(f'open_angle={self.open_angle} rad above max_angle={self.max_angle} '
+                       'rad (the joint limit)')
         return out
 
     def validated(self) -> ControllerParams:

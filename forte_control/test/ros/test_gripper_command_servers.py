@@ -14,9 +14,13 @@ kit builds it.
 """
 from __future__ import annotations
 
+import time
+
 import pytest
 import rclpy
+from rcl_interfaces.msg import Log
 from rclpy.action import ActionClient
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 control_actions = pytest.importorskip(
     'control_msgs.action', reason='control_msgs is not installed here (the launch kit builds '
@@ -26,7 +30,7 @@ if not hasattr(control_actions, 'ParallelGripperCommand'):
                 allow_module_level=True)
 
 from test_grasp_controller_node import (  # noqa: E402  (the fake world and its harness)
-    FREE_CURRENT,
+    FREE_EFFORT,
     STATUS_ABORTED,
     STATUS_SUCCEEDED,
     Harness,
@@ -88,11 +92,13 @@ def test_parallel_gripper_command_moves_and_reports_the_state(harness):
     assert result.reached_goal and not result.stalled
     assert list(result.state.name) == [LEFT, RIGHT]
     assert list(result.state.position) == pytest.approx([0.3, 0.3], abs=0.02)
-    assert list(result.state.effort) == pytest.approx([FREE_CURRENT, FREE_CURRENT])
+    # the joint effort [N m] the world reports (its servo current x 1.7826 N m/A, closing)
+    assert list(result.state.effort) == pytest.approx([FREE_EFFORT, FREE_EFFORT])
     assert result.state.header.stamp.sec > 0
     command = harness.world.servo_log[-1][1]
+    # effort 0.5 N m -> a current cap of 0.5 / (4.1 / 2.3) = 0.28049 A
     assert (command.position, command.max_current, command.profile_velocity) == \
-        pytest.approx((0.3, 0.5, 1.0))
+        pytest.approx((0.3, 0.280488, 1.0), abs=1e-6)
     # 0.4 rad at 2 rad/s: 0.2 s of motion, feedback at every control step (20 Hz)
     assert len(feedback) >= 2
     assert list(feedback[0].state.name) == [LEFT, RIGHT]
@@ -117,9 +123,9 @@ def test_gripper_command_result_and_feedback(harness):
     result = response.result
     assert result.reached_goal and not result.stalled
     assert result.position == pytest.approx(0.2, abs=0.02)
-    assert result.effort == pytest.approx(FREE_CURRENT)
+    assert result.effort == pytest.approx(FREE_EFFORT)
     assert feedback and not feedback[0].reached_goal and feedback[0].position > 0.22
-    assert harness.world.servo_log[-1][1].max_current == pytest.approx(0.4)
+    assert harness.world.servo_log[-1][1].max_current == pytest.approx(0.4 * 2.3 / 4.1)
 
 
 def test_a_blocked_gripper_stalls_short_of_the_goal(harness):
@@ -132,7 +138,7 @@ def test_a_blocked_gripper_stalls_short_of_the_goal(harness):
     result = response.result
     assert result.stalled and not result.reached_goal
     assert list(result.state.position) == pytest.approx([0.3, 0.3], abs=1e-6)
-    assert result.state.effort[0] > FREE_CURRENT  # squeezing the object
+    assert result.state.effort[0] < FREE_EFFORT  # squeezing the object: more torque
 
 
 def test_one_gripper_goal_at_a_time_and_none_during_a_grasp(harness):
@@ -167,3 +173,39 @@ def test_invalid_parallel_goal_is_refused_before_any_motion(harness):
         assert not send(harness, harness.parallel, goal).accepted
     harness.spin_for(0.2)
     assert len(harness.world.servo_log) == count
+
+
+def test_a_goal_beyond_the_joint_limit_is_rejected_at_once_naming_the_limit(harness):
+    """The joint's limit is max_angle (1.0 rad, the URDF's and the driver's), not the servo's
+    travel: a goal of 2.0 rad was accepted and ended SUCCEEDED with reached_goal false.
+    Now the goal callback rejects it (REJECTED, within 0.1 s of sending, wall clock) and
+    the log names the limit."""
+    log: list[str] = []
+    rosout = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    harness.client_node.create_subscription(
+        Log, '/rosout',
+        lambda message: log.append(message.msg) if message.name.endswith('grasp_controller')
+        else None, rosout)
+    count = len(harness.world.servo_log)
+    elapsed = {}
+    for name, client, goal in (
+            ('gripper_cmd', harness.gripper, gripper_goal(2.0)),
+            ('parallel_gripper_cmd', harness.parallel,
+             parallel_gripper_goal([LEFT, RIGHT], [2.0, 2.0])),
+            ('gripper_cmd', harness.gripper, gripper_goal(1.0 + 1e-3))):
+        started = time.perf_counter()
+        handle = send(harness, client, goal)
+        elapsed[name] = time.perf_counter() - started
+        assert not handle.accepted, name
+        assert elapsed[name] < 0.1, elapsed
+    limit = 'outside [0.0000, 1.0000] rad (min_angle .. max_angle, the joint limit)'
+    for expected in (f'gripper_cmd goal rejected: position 2.0000 rad {limit}',
+                     f'parallel_gripper_cmd goal rejected: {LEFT}: position 2.0000 rad {limit}',
+                     f'gripper_cmd goal rejected: position 1.0010 rad {limit}'):
+        assert harness.spin_until(lambda text=expected: text in log, 5.0), (expected, log[-3:])
+    # at the limit: accepted and reached
+    handle = send(harness, harness.gripper, gripper_goal(1.0))
+    assert handle.accepted and finish(harness, handle).result.reached_goal
+    assert len(harness.world.servo_log) == count + 1  # the refused ones moved nothing
+    print(f'rejection round trips [s]: {elapsed}')
