@@ -10,6 +10,14 @@ and unit logic):
 * ``gripper/command`` (forte_msgs/ServoCommand): validated (non-finite or negative values
   refused, out-of-range values clipped, each with a logged reason), then sent to both
   servos in ONE sync write packet;
+* ``gripper/joint_commands`` (sensor_msgs/JointState, while active): the command bridge of
+  ros2_control's ``topic_based_ros2_control/TopicBasedSystem`` (position of the finger
+  joint(s) [rad], optional velocity [rad/s] and effort [N m]), through the same check and
+  one sync write; refused while the grasp controller owns the servos (``grasp/state``: a
+  Grasp runs or its fault is latched) and ignored when it repeats the last command seen
+  (:mod:`forte_driver.joint_command_bridge`, :mod:`forte_driver.ros.joint_command_bridge`);
+* ``joint_states``: position theta [rad], velocity [rad/s] and effort = joint torque [N m]
+  (servo current x the torque constant of ``forte_ros.contract``), all along theta;
 * ``/diagnostics``: Hardware Error Status, temperature, input voltage, torque and the
   command/communication counters of each servo, at ``diagnostics_rate`` while configured;
 * status error byte: a state reply with an error number is not state: that sample is
@@ -47,6 +55,7 @@ from forte_driver.ros.gripper_driver_parameters import (
     PARAMETERS,
     gripper_config,
 )
+from forte_driver.ros.joint_command_bridge import JointCommandBridgeMixin
 from forte_msgs.msg import ServoCommand
 from forte_ros import ForteLifecycleNode, run_node
 from forte_ros.diagnostics import ERROR, OK, WARN, diagnostic_array, diagnostic_status, node_path
@@ -58,7 +67,7 @@ TEMPERATURE_WARNING_MARGIN_C = 5.0
 READ_FAILURES_FOR_ERROR = 3
 """Consecutive failed state reads after which diagnostics report an error."""
 
-class GripperDriverNode(ForteLifecycleNode):
+class GripperDriverNode(JointCommandBridgeMixin, ForteLifecycleNode):
     """The FORTE gripper driver (lifecycle node ``gripper_driver``)."""
 
     def __init__(self, **kwargs: Any) -> None:
@@ -88,6 +97,7 @@ class GripperDriverNode(ForteLifecycleNode):
             'consecutive_read_failures': 0, 'write_failures': 0, 'joint_states_published': 0,
         }
         self._last_error = ''
+        self._init_bridge()
         if self.get_parameter('autostart').value:
             if self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
                 self.trigger_activate()
@@ -112,6 +122,8 @@ class GripperDriverNode(ForteLifecycleNode):
         if self.gripper is not None and (
                 'default_current' in changed or 'default_profile_velocity' in changed):
             self.gripper.config = self._config_from(changed)
+        if 'grasp_state_timeout' in changed and hasattr(self, '_bridge_gate'):
+            self._bridge_gate.grasp_state_timeout = float(changed['grasp_state_timeout'])
         return SetParametersResult(successful=True)
 
     # -- lifecycle -------------------------------------------------------------------
@@ -146,6 +158,7 @@ class GripperDriverNode(ForteLifecycleNode):
             JointState, 'joint_states', COMMANDS)
         self._command_subscription = self.create_subscription(
             ServoCommand, 'gripper/command', self._on_command, COMMANDS)
+        self._subscribe_grasp_state()
         self._diagnostics_timer = self.create_timer(
             1.0 / self.get_parameter('diagnostics_rate').value, self._publish_diagnostics)
         self._configured = True
@@ -163,6 +176,7 @@ class GripperDriverNode(ForteLifecycleNode):
         self._state_timer = self.create_timer(
             1.0 / self.get_parameter('publish_rate').value, self._publish_state)
         self._active = True
+        self._start_bridge()
         return super().on_activate(state)
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
@@ -189,8 +203,9 @@ class GripperDriverNode(ForteLifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def _stop_publishing_state(self) -> None:
-        """Inactive: no more joint_states (the state timer is destroyed)."""
+        """Inactive: no more joint_states (the state timer is destroyed), no bridge."""
         self._active = False
+        self._stop_bridge()
         if self._state_timer is not None:
             self.destroy_timer(self._state_timer)
             self._state_timer = None
@@ -204,6 +219,7 @@ class GripperDriverNode(ForteLifecycleNode):
         self._configured = False
 
     def _release_ros_entities(self) -> None:
+        self._stop_bridge(grasp_state=True)
         if self._diagnostics_timer is not None:
             self.destroy_timer(self._diagnostics_timer)
             self._diagnostics_timer = None
@@ -425,7 +441,8 @@ class GripperDriverNode(ForteLifecycleNode):
                 'temperature_C': f'{state.temperature:.0f}',
                 'input_voltage_V': f'{state.input_voltage:.1f}',
                 'theta_rad': f'{state.theta:.5f}',
-                'current_A': f'{state.effort:.4f}',
+                'current_A': f'{state.current:.4f}',
+                'effort_Nm': f'{state.effort:.4f}',
             })
         return diagnostic_status(
             f'{node_path(self)}: {finger.name} finger servo (id {finger.servo_id})', level,
@@ -442,6 +459,7 @@ class GripperDriverNode(ForteLifecycleNode):
         values['alert_read_failures'] = str(self.gripper.alert_read_failures)
         values['last_error'] = self._last_error or 'none'
         values['release_on_shutdown'] = str(self.get_parameter('release_on_shutdown').value)
+        values.update(self._bridge_values())
         return diagnostic_status(f'{node_path(self)}: driver', ERROR if failing else OK,
                                  message, values,
                                  hardware_id=f'dynamixel bus {self.gripper.config.port}')

@@ -108,6 +108,10 @@ PARAMETERS: dict[str, ParameterSpec] = parameter_table(_with_hardware_note([
     ParameterSpec('prefix', str, 'TF / joint-name prefix prepended to the joint names of '
                   "joint_states (e.g. right_ for a second gripper; '' = none)", default='',
                   read_only=True),
+    ParameterSpec('grasp_state_timeout', float, 'a grasp/state older than this no longer '
+                  'gives the grasp controller the servos (gripper/joint_commands act again; '
+                  'the controller publishes it at least once a second)', 's', 0.5, 60.0,
+                  default=3.0),
 ]))
 
 

@@ -1,6 +1,7 @@
 """Gripper driver node with real rclpy (DDS on loopback), driven through its lifecycle
 services like a lifecycle manager, talking through the real dynamixel-sdk to the simulated
 XM430-W350 pair in its own process on a pty."""
+import gc
 import math
 import threading
 import time
@@ -10,19 +11,25 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from lifecycle_msgs.msg import State, Transition
 from lifecycle_msgs.srv import ChangeState, GetState
+from rcl_interfaces.msg import Log
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 from forte_driver.dynamixel import control_table as ct
 from forte_driver.dynamixel import protocol as proto
 from forte_driver.emulators.simulated_servo import SimulatedServoProcess
 from forte_driver.ros.gripper_driver_node import GripperDriverNode
-from forte_msgs.msg import ServoCommand
-from forte_ros.qos import COMMANDS, DIAGNOSTICS
+from forte_msgs.msg import GraspState, ServoCommand
+from forte_ros.contract import SERVO_TORQUE_CONSTANT
+from forte_ros.qos import COMMANDS, DIAGNOSTICS, GRASP_STATE
 from forte_ros.testing import wait_until
 
 PULSE = 2.0 * math.pi / 4096.0
+#: /rosout as ros2 topic echo reads it: the node's log lines, also those before matching.
+ROSOUT = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
+                    durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def wait_for(predicate, timeout=10.0):
@@ -48,6 +55,14 @@ class Harness:
         self.probe.create_subscription(DiagnosticArray, '/diagnostics',
                                        self.diagnostics.append, DIAGNOSTICS)
         self.commands = self.probe.create_publisher(ServoCommand, 'gripper/command', COMMANDS)
+        # the bridge of ros2_control's TopicBasedSystem, and the grasp controller's state
+        self.joint_commands = self.probe.create_publisher(JointState, 'gripper/joint_commands',
+                                                          COMMANDS)
+        self.grasp_states = self.probe.create_publisher(GraspState, 'grasp/state', GRASP_STATE)
+        self.log: list[str] = []
+        self.probe.create_subscription(
+            Log, '/rosout', lambda m: self.log.append(m.msg)
+            if m.name.endswith('gripper_driver') else None, ROSOUT)
         self.change_state = self.probe.create_client(ChangeState, 'gripper_driver/change_state')
         self.get_state = self.probe.create_client(GetState, 'gripper_driver/get_state')
         self.executor = SingleThreadedExecutor(context=self.context)
@@ -98,6 +113,12 @@ class Harness:
         self.driver.destroy_node()
         self.probe.destroy_node()
         rclpy.shutdown(context=self.context)
+        # rcl finalises a destroyed node when its handle is collected, and then drops the
+        # /rosout publisher registered under its logger name: if that happened during the
+        # next test, it would take the next 'gripper_driver' node's /rosout away (its log
+        # lines stop reaching /rosout mid-test). Collect now.
+        self.driver = self.probe = self.executor = None
+        gc.collect()
 
 
 @pytest.fixture
@@ -137,8 +158,9 @@ def test_command_moves_the_servos_and_joint_states_report_radians(bus, harness):
     assert moving is not None, 'no joint_states sample while moving'
     # 2 rad/s -> 83 units of 0.229 rpm = 1.99041 rad/s, on both (mirrored) joints.
     assert list(moving.velocity) == pytest.approx([83 * 0.0239809] * 2, rel=1e-5)
-    # Free motion current 15 units = 0.04035 A, positive along theta (opening).
-    assert list(moving.effort) == pytest.approx([15 * 0.00269] * 2, rel=1e-9)
+    # Free motion current 15 units = 0.04035 A, positive along theta (opening); effort is
+    # the joint torque: 0.04035 A x 4.1 / 2.3 N m/A = 0.071929 N m.
+    assert list(moving.effort) == pytest.approx([0.071929] * 2, abs=1e-6)
     arrived = harness.joint_state_where(
         lambda m: m.position[0] == m.position[1] and abs(m.position[0] - 0.4) < 1e-3
         and m.velocity[0] == 0.0)
@@ -151,18 +173,28 @@ def test_command_moves_the_servos_and_joint_states_report_radians(bus, harness):
     assert bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 1  # one packet, both servos
 
 
-def test_effort_is_the_squeezing_current_in_amperes(bus, harness):
+def test_effort_is_the_joint_torque_of_the_squeezing_current(bus, harness):
+    """joint_states effort [N m] = k x the servo's Present Current [A], k = 4.1 / 2.3 N m/A
+    (forte_ros.contract), along theta: squeezing (pushing closed) is negative."""
     configure_and_activate(harness)
     harness.send(0.3, max_current=0.5, profile_velocity=4.0)
     assert harness.joint_state_where(lambda m: abs(m.position[0] - 0.3) < 1e-3)
     bus.set_servo(1, obstacle=2048 + 100, obstacle_blocks_increasing=False)
     bus.set_servo(2, obstacle=2048 - 100, obstacle_blocks_increasing=True)
     harness.send(0.0, max_current=0.4)
-    expected = -148 * 0.00269  # 0.4 A -> 148 units (rounded toward zero) -> 0.39812 A
+    # 0.4 A -> 148 units (rounded toward zero) = 0.39812 A -> 0.709692 N m
+    expected = -0.709692
     squeezing = harness.joint_state_where(
-        lambda m: list(m.effort) == pytest.approx([expected] * 2, rel=1e-9))
+        lambda m: list(m.effort) == pytest.approx([expected] * 2, abs=1e-6))
     assert squeezing is not None, harness.joint_states[-1]
     assert list(squeezing.position) == pytest.approx([100 * PULSE] * 2, abs=1e-12)
+    # the servos' own Present Current registers (the right horn is mirrored: +148 raw on
+    # the left servo is -148 along theta)
+    assert bus.register_value(1, 'Present Current') == -148
+    assert bus.register_value(2, 'Present Current') == 148
+    assert expected == pytest.approx(-148 * 0.00269 * SERVO_TORQUE_CONSTANT, abs=1e-6)
+    right = harness.servo_status(1, lambda s: values_of(s).get('current_A') == '-0.3981')
+    assert right is not None and values_of(right)['effort_Nm'] == '-0.7097'
 
 
 def test_bad_commands_are_refused_or_clipped_with_a_reason(bus, harness):
