@@ -90,7 +90,10 @@ UNAVAILABLE_KEYS = {
     'robot_state_publisher': 'C++, no wheel; view_gripper.launch.py and the graphs start it '
                              'where it is installed (the graphs say so in one line if not)',
     'joint_state_publisher_gui': 'a Qt GUI, no wheel; only view_gripper.launch.py starts it',
-    'rviz2': 'C++ and Qt, no wheel; only view_gripper.launch.py starts it',
+    'rviz2': 'C++ and Qt, no wheel; view_gripper.launch.py and the graphs (rviz:=true) '
+             'start it where it is installed',
+    'diagnostic_aggregator': 'C++, no wheel; only the lab starts it with '
+                             'config/diagnostics_aggregator.yaml (docs/visualization.md)',
 }
 
 #: README's pip line: libraries with no rosdep key (test_declared_dependencies.PIP_ONLY).
