@@ -97,7 +97,7 @@ UNAVAILABLE_KEYS = {
 }
 
 #: README's pip line: libraries with no rosdep key (test_declared_dependencies.PIP_ONLY).
-README_PIP = ('rosbags', 'mcap', 'mcap-ros2-support')
+README_PIP = ('rosbags', 'mcap', 'mcap-ros2-support', 'python-fcl')
 
 #: Pins of constraints.txt that need a newer pytest than the stand-in's (pytest-rerunfailures
 #: 16 needs pytest 8.2; colcon-core requires it): pip picks a release that works with it.

@@ -12,7 +12,6 @@ margins in mm as stated.
 """
 from __future__ import annotations
 
-import importlib.util
 import math
 import subprocess
 import sys
@@ -312,8 +311,6 @@ def test_the_mount_joint_pair_is_disabled_on_the_arm(arm_srdf):
         assert disabled[frozenset((f'{prefix}tool0', f'{prefix}forte_base_link'))] == 'Adjacent'
 
 
-@pytest.mark.skipif(importlib.util.find_spec('fcl') is None,
-                    reason='python-fcl is not installed (requirements/hardware.txt)')
 def test_the_fcl_script_prints_the_srdf_pairs():
     """scripts/disabled_collisions.py samples with FCL, as MoveIt's setup assistant: its
     output is the macro's pairs; on the old geometry it finds the fingers in collision."""
@@ -331,8 +328,6 @@ def test_the_fcl_script_prints_the_srdf_pairs():
     assert distances == pytest.approx([1.0, 1.0, 1.0], abs=1e-6)  # [mm]
 
 
-@pytest.mark.skipif(importlib.util.find_spec('fcl') is None,
-                    reason='python-fcl is not installed (requirements/hardware.txt)')
 def test_the_fcl_script_flags_touching_fingers(tmp_path):
     """Fingers whose collision boxes touch when closed (the old model) are 'Default' pairs."""
     robot = expand(STANDALONE_URDF)
