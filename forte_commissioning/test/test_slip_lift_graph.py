@@ -33,6 +33,9 @@ from forte_ros.testing import wait_until  # noqa: E402
 LAUNCH = Path(__file__).resolve().parents[2] / 'forte_bringup' / 'launch'  # the sim graph
 SEED = 7
 LIFT_S = 6.0
+#: The sim node's default cmd_vel_timeout [s] and the lift node's command rate [Hz].
+CMD_VEL_TIMEOUT = 0.5
+COMMAND_RATE = 20.0
 UP = 90.0
 
 
@@ -74,9 +77,14 @@ def test_the_lift_slips_the_apple_on_the_sim_graph():
         print(f'\nground truth after the lift: lift {1e3 * truth.lift_height:.2f} mm, '
               f'object slip {1e3 * truth.object_slip:.2f} mm, onsets {truth.slip_onsets}, '
               f'state {truth.object_state}')
-        # at most the commanded 6 mm; less when commands arrive later than the sim node's
-        # cmd_vel_timeout on a loaded machine (the arm then stops until the next one)
-        assert 0.6 * 0.001 * LIFT_S < truth.lift_height < 0.001 * LIFT_S + 0.0002
+        # the commanded 6 mm, less when commands arrive later than the sim node's
+        # cmd_vel_timeout on a loaded machine (the arm then stops until the next one); more
+        # by what the arm travels before the stop command arrives, which the sim bounds: it
+        # stops the arm cmd_vel_timeout (0.5 s) after the last command it received, and the
+        # stop goes out at most one command period (0.05 s) after the lift's end (seen: 6.22
+        # mm in CI, a stop 0.22 s late)
+        overshoot = 0.001 * (CMD_VEL_TIMEOUT + 1.0 / COMMAND_RATE)
+        assert 0.6 * 0.001 * LIFT_S < truth.lift_height < 0.001 * LIFT_S + overshoot
         assert truth.slip_onsets >= 1 and truth.object_slip > 0.001
 
 
