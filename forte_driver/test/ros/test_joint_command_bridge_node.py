@@ -3,8 +3,8 @@
 The driver node runs against the simulated XM430-W350 pair (its own process, on a pty,
 through the real dynamixel-sdk); a probe node publishes what ros2_control's
 ``topic_based_ros2_control/TopicBasedSystem`` publishes on ``gripper/joint_commands`` and,
-standing in for the grasp controller, ``grasp/state`` (forte_sim's bench-twin test runs the
-real controller). Each claim is read from the servos' own registers, not from the driver.
+standing in for the grasp controller, ``grasp/state`` (forte_bringup's bench-twin test runs
+the real controller). Each claim is read from the servos' own registers, not from the driver.
 """
 from __future__ import annotations
 
