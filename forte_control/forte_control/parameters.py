@@ -107,6 +107,9 @@ CONTROLLER_PARAMETERS: dict[str, ParameterSpec] = _field_table((
     _spec('slip_refractory', float, 's', 'minimum time between two slip tightenings', 0.0, 10.0),
     _spec('slipping_interval', float, 's', 'while the slipping state persists after a slip '
           'tightening, tighten again this often (within max_tightening; 0: never)', 0.0, 10.0),
+    _spec('slip_reaction', str, '', "'events': one tightening per slip event (the paper's "
+          "reaction, for slip_mode paper); 'sliding': also tighten again while the slipping "
+          "state persists (slipping_interval)", choices=('events', 'sliding')),
     _spec('slip_speed', float, 'rad/s', 'servo profile velocity of a slip tightening',
           *SERVO_SPEED),
     # drop detection

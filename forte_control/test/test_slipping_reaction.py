@@ -78,6 +78,25 @@ def test_interval_zero_turns_it_off_and_no_slip_never_reacts():
     assert tighten_times(rig, 1.0) == []
 
 
+def test_the_papers_reaction_tightens_once_per_event_whatever_the_state_says():
+    # slip_reaction 'events' (slip_mode paper): a persisting slipping state adds nothing,
+    # each new event tightens once (the paper's controller)
+    rig = Rig(replace(ControllerParams(), slip_reaction='events'))
+    held = rig.to_lifting().servo.position
+    rig.slip, rig.slipping = True, True
+    assert rig.tick().slip_reacted
+    assert tighten_times(rig, 1.0) == []
+    rig.slip = True  # a second event, long after the refractory time
+    out = rig.tick()
+    assert out.slip_reacted and out.slip_events == 2
+    assert out.servo.position == pytest.approx(held - 2 * PAPER_SLIP_INCREMENT)
+
+
+def test_an_unknown_slip_reaction_is_refused():
+    problems = replace(ControllerParams(), slip_reaction='always').problems()
+    assert any('slip_reaction' in problem for problem in problems)
+
+
 def test_slip_duration_counts_sample_time_while_slipping():
     rig = Rig()
     rig.to_lifting()

@@ -406,6 +406,15 @@ def _pipeline(config, tare_duration: float, slip_mode: str | None, model):
     return PerceptionPipeline(config, model)
 
 
+def controller_params_for(slip_mode: str | None) -> ControllerParams:
+    """The controller a slip mode is measured with: the paper's reaction (one tightening per
+    slip event, ``slip_reaction='events'``) for the paper's detector, so ``slip_mode`` paper
+    is the paper's method end to end; the sliding reaction (the defaults) otherwise."""
+    if slip_mode == 'paper':
+        return ControllerParams(slip_reaction='events')
+    return ControllerParams()
+
+
 def run_trial(object_name: str, controller, seed: int = 0,
               params: ControllerParams | None = None, *, trial: int = 0,
               goal: GraspGoal | None = None, model=None, pipeline_config=None,
@@ -424,7 +433,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
     seed : int
         Scene seed (placement, material spread, noise); same seed, same trial.
     params : ControllerParams, optional
-        Controller configuration (default: :class:`ControllerParams` defaults).
+        Controller configuration (default: :func:`controller_params_for` ``slip_mode``).
     trial : int
         Trial index reported in the ground truth.
     goal : GraspGoal, optional
@@ -477,7 +486,7 @@ def run_trial(object_name: str, controller, seed: int = 0,
         model = default_force_model()
     pipeline = _pipeline(pipeline_config, tare_duration, slip_mode, model)
     scene = make_scene('grasp', object_name=object_name, seed=seed, trial=trial)
-    machine = GraspStateMachine(params or ControllerParams(), lift_check)
+    machine = GraspStateMachine(params or controller_params_for(slip_mode), lift_check)
     loop = _ClosedLoop(scene, pipeline, machine, chunk_samples, record_traces)
     out, truth = loop.warm_up(warmup)
     goal = GraspGoal(**{**(goal.__dict__ if goal is not None else {}), 'controller': kind})

@@ -46,6 +46,7 @@ class ControllerParams:
     slip_refractory: float = 0.05           # min time between two tightenings [s]
     slip_speed: float = 1.0                 # servo profile velocity for tightening [rad/s]
     slipping_interval: float = 0.2          # re-tighten while slipping persists (0: off) [s]
+    slip_reaction: str = 'sliding'          # 'events' (the paper's) or 'sliding' (+ state)
     # drop detection (LIFTING / HOLDING)
     drop_force_fraction: float = 0.3        # drop when force < fraction * reference force
     drop_min_reference_force: float = 0.1   # force detector armed only above this [N]

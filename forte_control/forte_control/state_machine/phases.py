@@ -250,10 +250,11 @@ class GraspPhases:
     def _tighten_on_slip(self, now: float, perception: PerceptionInput | None,
                          valid: bool) -> bool:
         """FORTE: a new slip flag outside the refractory time tightens by slip_increment
-        (a fault if that would exceed max_tightening); so does a slipping state that
-        persists ``slipping_interval`` after the last tightening, i.e. a state sampled in
-        the last half interval and after the tightening said slipping (never past
-        max_tightening, no fault: the grasp goes on at the cap). True if it tightened on a
+        (a fault if that would exceed max_tightening): the paper's reaction, all of
+        ``slip_reaction`` 'events'. With 'sliding' so does a slipping state that persists
+        ``slipping_interval`` after the last tightening, i.e. a state sampled in the last
+        half interval and after the tightening said slipping (never past max_tightening,
+        no fault: the grasp goes on at the cap). True if it tightened on a
         flag (a re-tightening while slipping is counted in slip_events but is no flag's
         reaction)."""
         grasp = self._grasp
@@ -271,7 +272,7 @@ class GraspPhases:
                             f'cap {p.max_tightening:.4f} rad')
                 return False
             reason = 'slip'
-        elif (p.slipping_interval > 0.0
+        elif (p.slip_reaction == 'sliding' and p.slipping_interval > 0.0
               and grasp.last_slipping_stamp >= max(grasp.last_tightening_time,
                                                    now - p.slipping_interval / 2)
               and grasp.tightening > 0.0  # after a tightening: it did not stop the slide
