@@ -20,7 +20,7 @@ Common to every scene (``fs`` = 2000 Hz):
 - **context** (what the robot commands): ``servo_command`` [rad] and ``arm_velocity``
   [m/s].
 
-Families (``noise_lsb`` log-uniform in 0.3-2 LSB unless stated):
+Families (``noise_lsb`` log-uniform in 1-2 LSB unless stated):
 
 ``quiet_sub_lsb``, ``quiet_above_lsb``
     20 s of holding still, white noise 0.15-0.95 LSB / 1-3 LSB. No slip; all holding.
@@ -41,7 +41,7 @@ Families (``noise_lsb`` log-uniform in 0.3-2 LSB unless stated):
     Motor hum while the arm moves: 62-150 Hz plus its second harmonic (0.3), 1-30 LSB with
     a 20 % amplitude modulation at 0.5-2 Hz, on for 5-8 s with 50 ms edges, channel gains
     0.3-1. The grasp is static: all holding.
-``stick_slip_<a>_<b>lsb``
+``stick_slip_10_30lsb``, ``stick_slip_30_100lsb`` (and issue 26's families below)
     During a lift, three stick-slip bursts of 0.1-0.6 s: releases at 10-50 Hz (period
     jitter +-20 %, never shorter than 20 ms; jumps +-30 %) step the contact shear down
     and ring the finger's bending mode (the simulator's resonator: ringing =
@@ -49,10 +49,66 @@ Families (``noise_lsb`` log-uniform in 0.3-2 LSB unless stated):
     slipping finger, log-uniform in [a, b] LSB; the other finger feels the profile's
     coupling (0.4-0.7) of it. The static shear steps are
     1/30 of the ringing per release (the simulator's shear / vibration gains). Event: first
-    release to last release + 0.1 s (the simulator's stick-slip label).
-``leading_finger``
+    release to last release + 0.1 s (the simulator's stick-slip label). Unchanged by
+    issue 38 (other tests and reports use them bit for bit); the physics below is meant to
+    replace theirs in a later step.
+``stick_slip_1_3lsb``, ``stick_slip_3_10lsb``, ``leading_finger`` (issue 38: re-derived)
+    The same three bursts during a lift (onsets 2.5, 6.0, 9.5 s +- 0.4 s), each drawn from
+    the finger's mechanics (:data:`PHYSICAL`, :class:`StickSlipRanges`; log-uniform unless
+    marked uniform; reasons in docs/slip_families.md):
+
+    - *bending mode*: profile resonance x 0.75-1.25 (10.5-47.5 Hz over the profiles;
+      held-out 12.8-47.5 Hz). A printed EPU 40 fin-ray finger (tip stiffness ~250 N/m,
+      modal mass 5-8 g) rings at 30-45 Hz free, which is how the slipping finger rings
+      while its contact slides; a stuck contact adds the object's mass (the simulator's
+      30 Hz / sqrt(1 + m / 0.3 kg): 14-27 Hz for 5 g-1 kg). Damping: profile damping
+      x 0.5-2.5 (0.035-0.30): the elastomer's loss factor 0.07-0.3 gives 0.035-0.15, the
+      sliding contact and a soft object add up to about as much again.
+    - *stick-slip waveform* (:func:`stick_slip_train`): the shear builds at a constant
+      rate while stuck and drops at each release (a sawtooth; the first stick loads over
+      >= 0.3 s before the first release), each release rings the mode (ringing =
+      resonator(shear) - shear, scaled to the strength). Static drop per release / peak
+      ringing: 1/30-2 (1/30: the simulator's shear / vibration gains, a channel far more
+      sensitive to the bending mode than to static shear; 1-2.7: one mode seen by the
+      channel with equal static and dynamic gain, the overshoot of a step being
+      exp(-pi zeta / sqrt(1 - zeta^2)) = 0.37-0.9 of the step).
+    - *releases* (:func:`release_train`): mean rate 3-60 Hz (loading rate / drop: the
+      simulator's mm-size slips about 1 s apart at 1 mm/s give a few Hz at the paper's 5
+      mm/s lift, a stiff fast contact tens of Hz); the static-friction excess of each
+      release is log-normal with sigma 0.05-0.6 (uniform), and sets both the drop and the
+      stick before it (a texture, as the simulator's); no stick shorter than 5 ms. Each
+      release lasts 0.5-8 ms (a mm-size slip at 0.1-1 m/s; a raised cosine). Burst 0.05-1 s
+      (from a single release to the longest episode before the grip catches).
+    - *channels* (:func:`vibration_pattern`): contact at the profile's location +- 0.15
+      (uniform, the object's placement); the channel nearest the contact carries most:
+      floor 0.05-0.5 (the global bending mode every channel feels) plus a kernel of width
+      0.15-0.4 of the finger length (both uniform), with the transducers' trim. Static
+      sawtooth on the simulator's shear pattern (1 / 0.6 / -0.5).
+    - *the other finger*, ``stick_slip_*`` (both fingers slip: a release shifts the load
+      onto the other contact, which releases too): the same releases 0-5 ms later
+      (uniform), its own mode (x 0.9-1.1, uniform: the fingers are printed separately),
+      peak ringing and sawtooth 0.3-1.0 of the slipping finger's; ``leading_finger`` (the
+      paper's leading-finger stick-slip: the trailing finger slides at kinetic friction,
+      whose force does not follow the release): in 1/3 of the bursts it feels nothing, in
+      the others 0.02-0.3 of the leading finger's ringing through the object and the
+      gripper (0-2 ms later, uniform); in half of the bursts it also unloads smoothly by
+      1-20 LSB over the burst (its gross slip, raised cosine). Never the same ringing on
+      both fingers.
+    - *strength* = peak ringing on the strongest channel of the slipping (leading) finger:
+      [a, b] LSB, ``leading_finger`` 1-150 LSB (the weakest stick-slip to the independent
+      set's strongest).
+    - *sensor*: white noise 0.3-2 LSB; mains hum in half the scenes (50 or 60 Hz,
+      fundamental 0.1-2 LSB on the strongest channel, second and third harmonics 0-0.3 and
+      0-0.5 of it, channel gains 0.5-1: pick-up in the transducer wiring and the ADC);
+      drift: besides the background's 0.27 LSB/sqrt(s), a random walk of 0.05-1
+      LSB/sqrt(s) and a thermal drift of +-1-30 LSB with time constant 2-20 s from a
+      start in 0-4 s on the grip pattern (the paper's temperature limit: the simulator's
+      30 LSB/K with 8 s). Hum and drift are left out of noise-free scenes.
+
+    Event: first release to last release + 0.1 s.
+``leading_finger`` before issue 38
     As stick-slip, 2-100 LSB, on one finger only (left or right, drawn): the other finger
-    feels nothing.
+    felt nothing; white noise 1-2 LSB, no hum.
 ``gross_smooth``
     During a lift, two episodes of smooth gross slip: the grip / shear pattern of both
     fingers decays monotonically (raised cosine) by 5-100 LSB over 0.5-3 s, without
@@ -66,7 +122,12 @@ Labels: slip events as above; *busy* = the distractor plus the detector's reach 
 
 Split: profiles ``p0 p2 p4 p6`` with seeds 0, 2, 4, 6 are *tune*; ``p1 p3 p5 p7`` with
 seeds 1, 3, 5, 7 are *held-out*. The held-out profiles' resonances (17, 23, 29, 38 Hz) lie
-between and above the tune ones (14, 20, 26, 33 Hz).
+between and above the tune ones (14, 20, 26, 33 Hz); in the issue-38 families each burst
+spreads them by x 0.75-1.25, so the held-out part reaches 47.5 Hz, the tune part 41 Hz.
+
+:data:`SET_VERSION` names the families' generation (2: issue 38); the slip set's cache key
+(:func:`forte_evaluation.slip_dataset.dataset_hash`) hashes this file, so any change here
+rebuilds the cached set.
 """
 from __future__ import annotations
 
@@ -91,8 +152,13 @@ from forte_perception.evaluation.labels import (
 from forte_ros.contract import QUANTUM as LSB
 from forte_ros.contract import SAMPLE_RATE as FS
 
-__all__ = ['FAMILIES', 'FS', 'LSB', 'PROFILES', 'FingerProfile', 'burst_component',
-           'make_scene', 'quantise_lsb', 'scene_keys', 'signal_scenes']
+__all__ = ['FAMILIES', 'FS', 'LSB', 'PHYSICAL', 'PROFILES', 'SET_VERSION', 'FingerProfile',
+           'StickSlipRanges', 'StickSlipTrain', 'burst_component', 'make_scene',
+           'quantise_lsb', 'release_train', 'scene_keys', 'shear_sawtooth', 'signal_scenes',
+           'stick_slip_train', 'vibration_pattern']
+
+#: Generation of the families (1: issues 14 and 26; 2: issue 38's physical stick-slip).
+SET_VERSION = 2
 
 DRIFT_LSB_PER_SQRT_S = 0.27
 DETECTOR_REACH = 0.25     # [s] a distractor stays in the detector's window this long
@@ -176,6 +242,7 @@ class _Draft:
     servo: np.ndarray | None = None
     arm: np.ndarray | None = None
     params: dict = field(default_factory=dict)
+    disturbance: np.ndarray | None = None   # hum, drift: left out of noise-free scenes
 
 
 def quantise_lsb(x_lsb: np.ndarray) -> np.ndarray:
@@ -356,6 +423,324 @@ def _add_burst(draft: _Draft, profile, burst: tuple, weights: np.ndarray,
                          'stick_slip', params['strength_lsb']))
 
 
+# ------------------------------------------------- physical stick-slip (issue 38)
+@dataclass(frozen=True)
+class StickSlipRanges:
+    """Ranges drawn by the physical stick-slip families (issue 38; reasons in the module
+    docstring and docs/slip_families.md). Pairs are (low, high); draws are log-uniform
+    unless the module docstring says uniform."""
+
+    resonance_factor: tuple[float, float] = (0.75, 1.25)    # x profile mode [-]
+    damping_factor: tuple[float, float] = (0.5, 2.5)        # x profile damping [-]
+    rate_hz: tuple[float, float] = (3.0, 60.0)              # mean release rate [Hz]
+    irregularity: tuple[float, float] = (0.05, 0.6)         # log-normal sigma, uniform [-]
+    min_interval_s: float = 0.005                           # shortest stick [s]
+    release_s: tuple[float, float] = (0.0005, 0.008)        # release duration [s]
+    duration_s: tuple[float, float] = (0.05, 1.0)           # burst length [s]
+    lead_in_s: float = 0.3                                  # first stick (loading) [s]
+    static_share: tuple[float, float] = (1.0 / 30.0, 2.0)   # static drop / peak ringing
+    contact_jitter: float = 0.15                            # +- along the finger, uniform
+    vibration_width: tuple[float, float] = (0.15, 0.4)      # kernel width, uniform [-]
+    vibration_floor: tuple[float, float] = (0.05, 0.5)      # global-mode share, uniform
+    coupling: tuple[float, float] = (0.3, 1.0)              # other finger, both-finger slip
+    other_delay_s: tuple[float, float] = (0.0, 0.005)       # its lag, uniform [s]
+    other_mode_factor: tuple[float, float] = (0.9, 1.1)     # its own mode, uniform [-]
+    trailing_share: tuple[float, float] = (0.02, 0.3)       # leading-finger slip [-]
+    trailing_silent: float = 1.0 / 3.0                      # P(trailing feels nothing)
+    trailing_delay_s: tuple[float, float] = (0.0, 0.002)    # uniform [s]
+    trailing_unload_lsb: tuple[float, float] = (1.0, 20.0)  # its smooth gross slip
+    trailing_unloads: float = 0.5                           # P(it unloads smoothly)
+    noise_lsb: tuple[float, float] = (0.3, 2.0)             # white noise
+    hum_probability: float = 0.5                            # mains hum in a scene
+    hum_lsb: tuple[float, float] = (0.1, 2.0)               # fundamental, strongest channel
+    hum_harmonics: tuple[float, float] = (0.3, 0.5)         # 2nd, 3rd: uniform 0 .. this
+    hum_gain: tuple[float, float] = (0.5, 1.0)              # per channel, uniform
+    walk_lsb_per_sqrt_s: tuple[float, float] = (0.05, 1.0)  # extra random-walk drift
+    thermal_lsb: tuple[float, float] = (1.0, 30.0)          # thermal drift amplitude
+    thermal_tau_s: tuple[float, float] = (2.0, 20.0)        # its time constant
+
+
+#: The ranges of :func:`_physical_stick_slip` (issue 38).
+PHYSICAL = StickSlipRanges()
+_MAINS_HZ = (50.0, 60.0)
+
+
+def vibration_pattern(contact: float, width: float, floor: float) -> np.ndarray:
+    """Share (3,) of a release's ringing on the distal, middle and root channels.
+
+    The channel nearest the contact carries most: ``floor + (1 - floor) * exp(-((contact -
+    centre) / width)^2)``, normalised to a maximum of 1 (``floor``: the finger's global
+    bending mode, felt by every channel; the kernel: the local deformation at the contact).
+    """
+    p = floor + (1.0 - floor) * np.exp(-((contact - _CENTRES) / width) ** 2)
+    return p / p.max()
+
+
+def _smooth_step(n: int, at: np.ndarray, heights: np.ndarray, length: int) -> np.ndarray:
+    """Sum (n,) of raised-cosine steps of ``heights`` starting at samples ``at``, each
+    rising over ``length`` samples."""
+    impulses = np.zeros(n)
+    np.add.at(impulses, at, heights)
+    ramp = 0.5 * (1.0 - np.cos(np.pi * np.arange(1, length + 1) / length))
+    return np.cumsum(np.convolve(impulses, np.diff(ramp, prepend=0.0))[:n])
+
+
+def release_train(onset: int, duration: float, rate_hz: float, irregularity: float,
+                  rng: np.random.Generator,
+                  min_interval: float = PHYSICAL.min_interval_s) -> tuple[np.ndarray,
+                                                                          np.ndarray,
+                                                                          float]:
+    """Release samples and static-friction excesses of one stick-slip burst.
+
+    Stick-slip under a constant loading rate (the lift): while stuck the shear builds at
+    a constant rate; it releases when it reaches the local static limit, kinetic +
+    ``e_i / 2`` (``e_i`` log-normal, sigma ``irregularity``, mean 1: the surface's
+    texture), and drops to kinetic - ``e_i / 2`` (the simulator's 2 kinetic - static), by
+    ``e_i`` in units of the mean drop. The stick before release ``i`` then builds
+    ``(e_{i-1} + e_i) / 2`` and lasts ``(e_{i-1} + e_i) / 2 / rate_hz`` (at least
+    ``min_interval``): the irregularities of the intervals and of the drops come from the
+    same texture.
+
+    Returns
+    -------
+    times : ndarray of int (k,)
+        Release samples, the first at ``onset``, all before ``onset + duration``.
+    excess : ndarray (k,)
+        Drop of each release (mean 1 over many releases) [-].
+    first_build : float
+        Shear built before the first release, ``(e_{-1} + e_0) / 2`` [-].
+    """
+    def draw() -> float:
+        return float(math.exp(irregularity * rng.standard_normal()
+                              - 0.5 * irregularity ** 2))
+
+    previous, e = draw(), draw()
+    first_build = 0.5 * (previous + e)
+    times, excess, t = [onset], [e], float(onset)
+    while True:
+        nxt = draw()
+        t += max(0.5 * (e + nxt) / rate_hz, min_interval) * FS
+        if t >= onset + duration * FS:
+            break
+        times.append(int(round(t)))
+        excess.append(nxt)
+        e = nxt
+    return np.array(times, np.int64), np.array(excess), first_build
+
+
+@dataclass
+class StickSlipTrain:
+    """One finger's stick-slip burst (:func:`stick_slip_train`), all (n,) [LSB].
+
+    Attributes
+    ----------
+    ringing : ndarray
+        Bending-mode ringing, peak ``|ringing|`` = the strength.
+    static : ndarray
+        Static shear sawtooth: builds while stuck, drops at each release (mean drop =
+        ``static_share`` x strength).
+    shear : ndarray
+        The sawtooth in units of the mean drop (the force that drives the mode) [-].
+    releases : ndarray of int
+        Release samples.
+    """
+
+    ringing: np.ndarray
+    static: np.ndarray
+    shear: np.ndarray
+    releases: np.ndarray
+
+
+def shear_sawtooth(n: int, times: np.ndarray, excess: np.ndarray, first_build: float,
+                   rate_hz: float, release_s: float,
+                   lead_in: float = PHYSICAL.lead_in_s) -> np.ndarray:
+    """The contact shear (n,) of a release train, in units of the mean drop.
+
+    Loading: ``first_build`` over ``max(lead_in, first_build / rate_hz)`` s before the first
+    release (the lift takes the load), then ``rate_hz`` per second (mean drops per second)
+    until the last release; each release drops ``excess[i]`` along a raised cosine of
+    ``release_s``. Constant after the last release (stuck again, the load carried).
+    """
+    k = np.arange(n, dtype=float)
+    onset, last = float(times[0]), float(times[-1])
+    lead = max(lead_in, first_build / rate_hz) * FS
+    build = (first_build * np.clip((k - (onset - lead)) / lead, 0.0, 1.0)
+             + rate_hz / FS * np.clip(k - onset, 0.0, last - onset))
+    length = max(int(round(release_s * FS)), 1)
+    return build - _smooth_step(n, times, excess, length)
+
+
+def _ring(shear: np.ndarray, resonance_hz: float, damping: float) -> np.ndarray:
+    b, a = _resonator(resonance_hz, damping)
+    return lfilter(b, a, shear) - shear
+
+
+def _delayed(x: np.ndarray, samples: int) -> np.ndarray:
+    out = np.zeros_like(x)
+    out[samples:] = x[:x.size - samples]
+    return out
+
+
+def stick_slip_train(n: int, onset: int, duration: float, rate_hz: float,
+                     irregularity: float, release_s: float, resonance_hz: float,
+                     damping: float, strength: float, static_share: float,
+                     rng: np.random.Generator) -> StickSlipTrain:
+    """One finger's stick-slip burst: a sawtooth of contact shear that rings the finger's
+    bending mode at every release.
+
+    Parameters
+    ----------
+    n, onset : int
+        Samples of the scene; sample of the first release.
+    duration : float
+        Releases fall in ``[onset, onset + duration)`` [s].
+    rate_hz : float
+        Mean release rate [Hz] (:func:`release_train`).
+    irregularity : float
+        Log-normal sigma of the static-friction excess (drop sizes and intervals) [-].
+    release_s : float
+        Duration of one release (the slip) [s].
+    resonance_hz, damping : float
+        Bending mode [Hz] and its damping ratio [-].
+    strength : float
+        Peak ringing [LSB].
+    static_share : float
+        Mean static drop per release / ``strength`` [-].
+    rng : numpy.random.Generator
+    """
+    times, excess, first = release_train(onset, duration, rate_hz, irregularity, rng)
+    shear = shear_sawtooth(n, times, excess, first, rate_hz, release_s)
+    ringing = _ring(shear, resonance_hz, damping)
+    ringing *= strength / np.abs(ringing).max()
+    static = shear * (static_share * strength / excess.mean())
+    return StickSlipTrain(ringing, static, shear / excess.mean(), times)
+
+
+def _finger_pattern(vibration: np.ndarray, finger: int) -> np.ndarray:
+    """(3,) vibration pattern with the finger's transducer trim, strongest 1."""
+    p = vibration * _TRIM[finger]
+    return p / p.max()
+
+
+def _add_finger(signal: np.ndarray, finger: int, ringing: np.ndarray, vibration: np.ndarray,
+                static: np.ndarray, shear: np.ndarray) -> None:
+    cols = slice(3 * finger, 3 * finger + 3)
+    signal[:, cols] += ringing[:, None] * vibration[None, :] + static[:, None] * shear[None, :]
+
+
+def _physical_burst(rng, profile: FingerProfile, n: int, onset: int,
+                    strength: tuple[float, float]) -> tuple[StickSlipTrain, dict]:
+    r = PHYSICAL
+    params = {'onset_s': onset / FS, 'duration_s': _loguniform(rng, *r.duration_s),
+              'rate_hz': _loguniform(rng, *r.rate_hz),
+              'irregularity': float(rng.uniform(*r.irregularity)),
+              'release_s': _loguniform(rng, *r.release_s),
+              'resonance_hz': profile.resonance_hz * _loguniform(rng, *r.resonance_factor),
+              'damping': profile.damping * _loguniform(rng, *r.damping_factor),
+              'strength_lsb': _loguniform(rng, *strength),
+              'static_share': _loguniform(rng, *r.static_share),
+              'contact': float(np.clip(profile.contact + rng.uniform(-r.contact_jitter,
+                                                                     r.contact_jitter),
+                                       0.05, 0.95)),
+              'vibration_width': float(rng.uniform(*r.vibration_width)),
+              'vibration_floor': float(rng.uniform(*r.vibration_floor))}
+    train = stick_slip_train(n, onset, params['duration_s'], params['rate_hz'],
+                             params['irregularity'], params['release_s'],
+                             params['resonance_hz'], params['damping'],
+                             params['strength_lsb'], params['static_share'], rng)
+    params['releases'] = int(train.releases.size)
+    return train, params
+
+
+def _physical_stick_slip(rng, profile, n, strength: tuple[float, float],
+                         leading: bool) -> _Draft:
+    """Stick-slip bursts on both fingers (``leading`` False) or under the leading finger
+    (module docstring, issue 38)."""
+    r = PHYSICAL
+    draft = _Draft(np.zeros((n, 6)), arm=np.full(n, LIFT_VELOCITY),
+                   disturbance=np.zeros((n, 6)))
+    shear = profile.pattern('shear')
+    k = np.arange(n)
+    bursts = []
+    for centre in (2.5, 6.0, 9.5):
+        onset = int((centre + rng.uniform(-0.4, 0.4)) * FS)
+        train, params = _physical_burst(rng, profile, n, onset, strength)
+        finger = int(rng.integers(0, 2))
+        other = 1 - finger
+        vib = vibration_pattern(params['contact'], params['vibration_width'],
+                                params['vibration_floor'])
+        _add_finger(draft.signal, finger, train.ringing, _finger_pattern(vib, finger),
+                    train.static, shear[finger])
+        other_contact = float(np.clip(params['contact'] + rng.uniform(-0.05, 0.05),
+                                      0.05, 0.95))
+        other_vib = _finger_pattern(vibration_pattern(
+            other_contact, params['vibration_width'], params['vibration_floor']), other)
+        if leading:
+            silent = rng.uniform() < r.trailing_silent
+            share = 0.0 if silent else _loguniform(rng, *r.trailing_share)
+            delay = int(round(rng.uniform(*r.trailing_delay_s) * FS))
+            unload = (_loguniform(rng, *r.trailing_unload_lsb)
+                      if rng.uniform() < r.trailing_unloads else 0.0)
+            s = 0.5 * (1.0 - np.cos(np.pi * np.clip(
+                (k - onset) / (params['duration_s'] * FS), 0.0, 1.0)))
+            _add_finger(draft.signal, other, share * _delayed(train.ringing, delay),
+                        other_vib, -unload * s, shear[other])
+            params.update(trailing_share=share, trailing_delay_s=delay / FS,
+                          trailing_unload_lsb=unload)
+            fingers = (FINGER_LEFT, FINGER_RIGHT)[finger]
+        else:
+            coupling = _loguniform(rng, *r.coupling)
+            delay = int(round(rng.uniform(*r.other_delay_s) * FS))
+            mode = params['resonance_hz'] * rng.uniform(*r.other_mode_factor)
+            shifted = _delayed(train.shear, delay)
+            ringing = _ring(shifted, mode, params['damping'])
+            ringing *= coupling * params['strength_lsb'] / np.abs(ringing).max()
+            static = shifted * (coupling * params['static_share'] * params['strength_lsb'])
+            _add_finger(draft.signal, other, ringing, other_vib, static, shear[other])
+            params.update(coupling=coupling, other_delay_s=delay / FS,
+                          other_resonance_hz=mode)
+            fingers = FINGER_BOTH
+        draft.events.append((onset, int(train.releases[-1]) + int(0.1 * FS), fingers,
+                             'stick_slip', params['strength_lsb']))
+        bursts.append({**params, 'finger': finger, 'other_contact': other_contact})
+    draft.params['bursts'] = bursts
+    draft.params.update(_add_disturbances(draft, rng, profile, n))
+    return draft
+
+
+def _add_disturbances(draft: _Draft, rng, profile: FingerProfile, n: int) -> dict:
+    """Mains hum (in some scenes), extra random-walk drift and thermal drift into
+    ``draft.disturbance`` (left out of noise-free scenes); their parameters."""
+    r = PHYSICAL
+    t = np.arange(n) / FS
+    out = {}
+    if rng.uniform() < r.hum_probability:
+        mains = float(rng.choice(_MAINS_HZ))
+        amp = _loguniform(rng, *r.hum_lsb)
+        h2, h3 = (float(rng.uniform(0.0, h)) for h in r.hum_harmonics)
+        phase = rng.uniform(0.0, 2.0 * np.pi, 3)
+        gains = rng.uniform(*r.hum_gain, 6)
+        gains /= gains.max()
+        wave = amp * (np.sin(2 * np.pi * mains * t + phase[0])
+                      + h2 * np.sin(4 * np.pi * mains * t + phase[1])
+                      + h3 * np.sin(6 * np.pi * mains * t + phase[2]))
+        draft.disturbance += wave[:, None] * gains[None, :]
+        out['mains_hum'] = {'frequency_hz': mains, 'amplitude_lsb': amp,
+                            'second_harmonic': h2, 'third_harmonic': h3}
+    walk = _loguniform(rng, *r.walk_lsb_per_sqrt_s)
+    draft.disturbance += np.cumsum(rng.standard_normal((n, 6)), axis=0) * (
+        walk / math.sqrt(FS))
+    amp = _loguniform(rng, *r.thermal_lsb) * rng.choice((-1.0, 1.0))
+    tau = _loguniform(rng, *r.thermal_tau_s)
+    start = rng.uniform(0.0, 4.0)
+    thermal = amp * (1.0 - np.exp(-np.clip(t - start, 0.0, None) / tau))
+    weights = rng.uniform(0.5, 1.0, 2)
+    draft.disturbance += _both(profile.pattern('normal'), thermal, weights)
+    out['drift'] = {'walk_lsb_per_sqrt_s': walk, 'thermal_lsb': float(amp),
+                    'thermal_tau_s': tau, 'thermal_start_s': start}
+    return out
+
+
 def _one_finger(rng) -> tuple[int, np.ndarray]:
     """A drawn finger (0 left, 1 right) and its unit weights (2,)."""
     finger = int(rng.integers(0, 2))
@@ -440,11 +825,15 @@ FAMILIES: dict[str, tuple[Callable, float, tuple[float, float]]] = {
     'ramp': _family(_ramps, 12.0),
     'low_frequency': _family(_low_frequency, 12.0),
     'high_frequency': _family(_high_frequency, 12.0),
-    'stick_slip_1_3lsb': _family(_stick_slip, 12.0, strength=(1.0, 3.0), both=True),
-    'stick_slip_3_10lsb': _family(_stick_slip, 12.0, strength=(3.0, 10.0), both=True),
+    # issue 38: re-derived from the finger's mechanics (module docstring)
+    'stick_slip_1_3lsb': _family(_physical_stick_slip, 12.0, PHYSICAL.noise_lsb,
+                                 strength=(1.0, 3.0), leading=False),
+    'stick_slip_3_10lsb': _family(_physical_stick_slip, 12.0, PHYSICAL.noise_lsb,
+                                  strength=(3.0, 10.0), leading=False),
     'stick_slip_10_30lsb': _family(_stick_slip, 12.0, strength=(10.0, 30.0), both=True),
     'stick_slip_30_100lsb': _family(_stick_slip, 12.0, strength=(30.0, 100.0), both=True),
-    'leading_finger': _family(_stick_slip, 12.0, strength=(2.0, 100.0), both=False),
+    'leading_finger': _family(_physical_stick_slip, 12.0, PHYSICAL.noise_lsb,
+                              strength=(1.0, 150.0), leading=True),
     'gross_smooth': _family(_gross_smooth, 13.0),
     # issue 26: what the paper describes and the first set lacked
     'sustained_sliding': _family(_stick_slip, 12.0, strength=(3.0, 30.0), both=True,
@@ -502,6 +891,8 @@ def make_scene(family: str, profile: str, seed: int, *, quantised: bool = True,
     background = _background(rng, prof, n, noise_lsb, noise_free)
     draft = builder(rng, prof, n)
     x = background + draft.signal
+    if draft.disturbance is not None and not noise_free:
+        x = x + draft.disturbance
     frames = quantise_lsb(x) if quantised else x * LSB
     reach, grace = int(DETECTOR_REACH * FS), int(SLIP_GRACE * FS)
     remove = [(a, b + grace) for a, b, *_ in draft.events] + [(a, b + reach)
