@@ -71,7 +71,10 @@ Families (``noise_lsb`` log-uniform in 1-2 LSB unless stated):
       ringing: 1/30-2 (1/30: the simulator's shear / vibration gains, a channel far more
       sensitive to the bending mode than to static shear; 1-2.7: one mode seen by the
       channel with equal static and dynamic gain, the overshoot of a step being
-      exp(-pi zeta / sqrt(1 - zeta^2)) = 0.37-0.9 of the step).
+      exp(-pi zeta / sqrt(1 - zeta^2)) = 0.37-0.9 of the step), the mean drop at most 30 LSB
+      (a release sheds at most ~0.5 N, 2 (mu_s - mu_k) N at the paper's grip forces, and the
+      channels give at most ~60 LSB/N of static load: paper Fig. 3b). The first stick's
+      loading is *busy*, as the lift loading of ``ramp``.
     - *releases* (:func:`release_train`): mean rate 3-60 Hz (loading rate / drop: the
       simulator's mm-size slips about 1 s apart at 1 mm/s give a few Hz at the paper's 5
       mm/s lift, a stiff fast contact tens of Hz); the static-friction excess of each
@@ -155,7 +158,7 @@ from forte_ros.contract import SAMPLE_RATE as FS
 __all__ = ['FAMILIES', 'FS', 'LSB', 'PHYSICAL', 'PROFILES', 'SET_VERSION', 'FingerProfile',
            'StickSlipRanges', 'StickSlipTrain', 'burst_component', 'make_scene',
            'quantise_lsb', 'release_train', 'scene_keys', 'shear_sawtooth', 'signal_scenes',
-           'stick_slip_train', 'vibration_pattern']
+           'static_drop', 'stick_slip_train', 'vibration_pattern']
 
 #: Generation of the families (1: issues 14 and 26; 2: issue 38's physical stick-slip).
 SET_VERSION = 2
@@ -439,6 +442,7 @@ class StickSlipRanges:
     duration_s: tuple[float, float] = (0.05, 1.0)           # burst length [s]
     lead_in_s: float = 0.3                                  # first stick (loading) [s]
     static_share: tuple[float, float] = (1.0 / 30.0, 2.0)   # static drop / peak ringing
+    max_static_lsb: float = 30.0                            # cap of the mean static drop
     contact_jitter: float = 0.15                            # +- along the finger, uniform
     vibration_width: tuple[float, float] = (0.15, 0.4)      # kernel width, uniform [-]
     vibration_floor: tuple[float, float] = (0.05, 0.5)      # global-mode share, uniform
@@ -543,12 +547,15 @@ class StickSlipTrain:
         The sawtooth in units of the mean drop (the force that drives the mode) [-].
     releases : ndarray of int
         Release samples.
+    loading : int
+        Sample where the first stick starts loading the contact (before the first release).
     """
 
     ringing: np.ndarray
     static: np.ndarray
     shear: np.ndarray
     releases: np.ndarray
+    loading: int
 
 
 def shear_sawtooth(n: int, times: np.ndarray, excess: np.ndarray, first_build: float,
@@ -563,11 +570,16 @@ def shear_sawtooth(n: int, times: np.ndarray, excess: np.ndarray, first_build: f
     """
     k = np.arange(n, dtype=float)
     onset, last = float(times[0]), float(times[-1])
-    lead = max(lead_in, first_build / rate_hz) * FS
+    lead = _lead_in(first_build, rate_hz, lead_in)
     build = (first_build * np.clip((k - (onset - lead)) / lead, 0.0, 1.0)
              + rate_hz / FS * np.clip(k - onset, 0.0, last - onset))
     length = max(int(round(release_s * FS)), 1)
     return build - _smooth_step(n, times, excess, length)
+
+
+def _lead_in(first_build: float, rate_hz: float, lead_in: float = PHYSICAL.lead_in_s) -> float:
+    """Samples of the first stick's loading before the first release."""
+    return max(lead_in, first_build / rate_hz) * FS
 
 
 def _ring(shear: np.ndarray, resonance_hz: float, damping: float) -> np.ndarray:
@@ -605,15 +617,24 @@ def stick_slip_train(n: int, onset: int, duration: float, rate_hz: float,
     strength : float
         Peak ringing [LSB].
     static_share : float
-        Mean static drop per release / ``strength`` [-].
+        Mean static drop per release / ``strength`` [-]; the mean drop is capped at
+        ``PHYSICAL.max_static_lsb``.
     rng : numpy.random.Generator
     """
     times, excess, first = release_train(onset, duration, rate_hz, irregularity, rng)
     shear = shear_sawtooth(n, times, excess, first, rate_hz, release_s)
     ringing = _ring(shear, resonance_hz, damping)
     ringing *= strength / np.abs(ringing).max()
-    static = shear * (static_share * strength / excess.mean())
-    return StickSlipTrain(ringing, static, shear / excess.mean(), times)
+    static = shear * (static_drop(strength, static_share) / excess.mean())
+    loading = int(round(onset - _lead_in(first, rate_hz)))
+    return StickSlipTrain(ringing, static, shear / excess.mean(), times, max(loading, 0))
+
+
+def static_drop(strength: float, static_share: float) -> float:
+    """Mean static drop per release [LSB]: ``static_share * strength``, at most
+    ``PHYSICAL.max_static_lsb`` (a release sheds at most ~0.5 N of shear, 2 (mu_s - mu_k) N,
+    and the channels give at most ~60 LSB/N of static load)."""
+    return min(static_share * strength, PHYSICAL.max_static_lsb)
 
 
 def _finger_pattern(vibration: np.ndarray, finger: int) -> np.ndarray:
@@ -695,14 +716,19 @@ def _physical_stick_slip(rng, profile, n, strength: tuple[float, float],
             shifted = _delayed(train.shear, delay)
             ringing = _ring(shifted, mode, params['damping'])
             ringing *= coupling * params['strength_lsb'] / np.abs(ringing).max()
-            static = shifted * (coupling * params['static_share'] * params['strength_lsb'])
+            static = shifted * (coupling * static_drop(params['strength_lsb'],
+                                                       params['static_share']))
             _add_finger(draft.signal, other, ringing, other_vib, static, shear[other])
             params.update(coupling=coupling, other_delay_s=delay / FS,
                           other_resonance_hz=mode)
             fingers = FINGER_BOTH
         draft.events.append((onset, int(train.releases[-1]) + int(0.1 * FS), fingers,
                              'stick_slip', params['strength_lsb']))
-        bursts.append({**params, 'finger': finger, 'other_contact': other_contact})
+        draft.busy.append((train.loading, onset))        # the lift loads the contact
+        bursts.append({**params, 'finger': finger, 'other_contact': other_contact,
+                       'static_drop_lsb': static_drop(params['strength_lsb'],
+                                                      params['static_share']),
+                       'loading_s': train.loading / FS})
     draft.params['bursts'] = bursts
     draft.params.update(_add_disturbances(draft, rng, profile, n))
     return draft

@@ -320,6 +320,16 @@ def test_every_stated_range_is_honoured_over_all_scenes(family):
     _within(get['irregularity'], *r.irregularity, log=False)
     _within(get['release_s'], *r.release_s)
     _within(get['static_share'], *r.static_share)
+    for _, b in bursts:              # the mean static drop: share x strength, at most 30 LSB
+        assert b['static_drop_lsb'] == pytest.approx(
+            min(b['static_share'] * b['strength_lsb'], r.max_static_lsb))
+    # the first stick's loading (>= 0.3 s before the first release) is busy, not holding
+    for scene, b in bursts:
+        onset = int(round(b['onset_s'] * FS))
+        loading = int(round(b['loading_s'] * FS))
+        assert onset - loading >= r.lead_in_s * FS - 1
+        for start, stop in scene.holding:
+            assert stop <= loading or start >= onset
     _within(get['vibration_width'], *r.vibration_width, log=False)
     _within(get['vibration_floor'], *r.vibration_floor, log=False)
     _within([b['resonance_hz'] / profile[s.object_name].resonance_hz for s, b in bursts],
