@@ -187,7 +187,7 @@ def burst_ringing(amplitude_lsb: float, resonance_hz: float, damping: float, rat
     last = lead + duration_s * fs
     times = np.arange(lead, last, fs / rate_hz).round().astype(np.int64)
     n = lead + max(samples, int(math.ceil(duration_s * fs)) + int(2 * fs))
-    shear = shear_sawtooth(n, times, np.ones(times.size), 1.0, rate_hz, release_s)
+    shear = shear_sawtooth(n, times, np.ones(times.size), rate_hz, release_s)
     ringing = _ring(shear, resonance_hz, damping)
     ringing *= amplitude_lsb / np.abs(ringing).max() if amplitude_lsb else 0.0
     return ringing[lead:lead + samples]

@@ -65,16 +65,16 @@ Families (``noise_lsb`` log-uniform in 1-2 LSB unless stated):
       x 0.5-2.5 (0.035-0.30): the elastomer's loss factor 0.07-0.3 gives 0.035-0.15, the
       sliding contact and a soft object add up to about as much again.
     - *stick-slip waveform* (:func:`stick_slip_train`): the shear builds at a constant
-      rate while stuck and drops at each release (a sawtooth; the first stick loads over
-      >= 0.3 s before the first release), each release rings the mode (ringing =
+      rate while stuck and drops at each release (a sawtooth; before the first release the
+      stuck contact sits at its limit, reached by the lift's or the grip's slow changes, so
+      the sawtooth starts with a drop), each release rings the mode (ringing =
       resonator(shear) - shear, scaled to the strength). Static drop per release / peak
       ringing: 1/30-2 (1/30: the simulator's shear / vibration gains, a channel far more
       sensitive to the bending mode than to static shear; 1-2.7: one mode seen by the
       channel with equal static and dynamic gain, the overshoot of a step being
       exp(-pi zeta / sqrt(1 - zeta^2)) = 0.37-0.9 of the step), the mean drop at most 30 LSB
       (a release sheds at most ~0.5 N, 2 (mu_s - mu_k) N at the paper's grip forces, and the
-      channels give at most ~60 LSB/N of static load: paper Fig. 3b). The first stick's
-      loading is *busy*, as the lift loading of ``ramp``.
+      channels give at most ~60 LSB/N of static load: paper Fig. 3b).
     - *releases* (:func:`release_train`): mean rate 3-60 Hz (loading rate / drop: the
       simulator's mm-size slips about 1 s apart at 1 mm/s give a few Hz at the paper's 5
       mm/s lift, a stiff fast contact tens of Hz); the static-friction excess of each
@@ -440,7 +440,6 @@ class StickSlipRanges:
     min_interval_s: float = 0.005                           # shortest stick [s]
     release_s: tuple[float, float] = (0.0005, 0.008)        # release duration [s]
     duration_s: tuple[float, float] = (0.05, 1.0)           # burst length [s]
-    lead_in_s: float = 0.3                                  # first stick (loading) [s]
     static_share: tuple[float, float] = (1.0 / 30.0, 2.0)   # static drop / peak ringing
     max_static_lsb: float = 30.0                            # cap of the mean static drop
     contact_jitter: float = 0.15                            # +- along the finger, uniform
@@ -491,9 +490,8 @@ def _smooth_step(n: int, at: np.ndarray, heights: np.ndarray, length: int) -> np
 
 def release_train(onset: int, duration: float, rate_hz: float, irregularity: float,
                   rng: np.random.Generator,
-                  min_interval: float = PHYSICAL.min_interval_s) -> tuple[np.ndarray,
-                                                                          np.ndarray,
-                                                                          float]:
+                  min_interval: float = PHYSICAL.min_interval_s
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Release samples and static-friction excesses of one stick-slip burst.
 
     Stick-slip under a constant loading rate (the lift): while stuck the shear builds at
@@ -503,7 +501,7 @@ def release_train(onset: int, duration: float, rate_hz: float, irregularity: flo
     ``e_i`` in units of the mean drop. The stick before release ``i`` then builds
     ``(e_{i-1} + e_i) / 2`` and lasts ``(e_{i-1} + e_i) / 2 / rate_hz`` (at least
     ``min_interval``): the irregularities of the intervals and of the drops come from the
-    same texture.
+    same texture. Before the first release the contact is stuck at its limit.
 
     Returns
     -------
@@ -511,25 +509,22 @@ def release_train(onset: int, duration: float, rate_hz: float, irregularity: flo
         Release samples, the first at ``onset``, all before ``onset + duration``.
     excess : ndarray (k,)
         Drop of each release (mean 1 over many releases) [-].
-    first_build : float
-        Shear built before the first release, ``(e_{-1} + e_0) / 2`` [-].
     """
     def draw() -> float:
         return float(math.exp(irregularity * rng.standard_normal()
                               - 0.5 * irregularity ** 2))
 
-    previous, e = draw(), draw()
-    first_build = 0.5 * (previous + e)
+    e = draw()
     times, excess, t = [onset], [e], float(onset)
     while True:
         nxt = draw()
         t += max(0.5 * (e + nxt) / rate_hz, min_interval) * FS
-        if t >= onset + duration * FS:
+        if round(t) >= onset + duration * FS:
             break
         times.append(int(round(t)))
         excess.append(nxt)
         e = nxt
-    return np.array(times, np.int64), np.array(excess), first_build
+    return np.array(times, np.int64), np.array(excess)
 
 
 @dataclass
@@ -547,39 +542,29 @@ class StickSlipTrain:
         The sawtooth in units of the mean drop (the force that drives the mode) [-].
     releases : ndarray of int
         Release samples.
-    loading : int
-        Sample where the first stick starts loading the contact (before the first release).
     """
 
     ringing: np.ndarray
     static: np.ndarray
     shear: np.ndarray
     releases: np.ndarray
-    loading: int
 
 
-def shear_sawtooth(n: int, times: np.ndarray, excess: np.ndarray, first_build: float,
-                   rate_hz: float, release_s: float,
-                   lead_in: float = PHYSICAL.lead_in_s) -> np.ndarray:
-    """The contact shear (n,) of a release train, in units of the mean drop.
+def shear_sawtooth(n: int, times: np.ndarray, excess: np.ndarray, rate_hz: float,
+                   release_s: float) -> np.ndarray:
+    """The contact shear (n,) of a release train, in units of the mean drop, 0 before the
+    first release (stuck at its limit).
 
-    Loading: ``first_build`` over ``max(lead_in, first_build / rate_hz)`` s before the first
-    release (the lift takes the load), then ``rate_hz`` per second (mean drops per second)
-    until the last release; each release drops ``excess[i]`` along a raised cosine of
-    ``release_s``. Constant after the last release (stuck again, the load carried).
+    Each release drops ``excess[i]`` along a raised cosine of ``release_s``; between
+    releases the shear builds at ``rate_hz`` mean drops per second (the lift reloads the
+    re-stuck contact) until the last release; constant after it (stuck again, the load
+    carried).
     """
     k = np.arange(n, dtype=float)
     onset, last = float(times[0]), float(times[-1])
-    lead = _lead_in(first_build, rate_hz, lead_in)
-    build = (first_build * np.clip((k - (onset - lead)) / lead, 0.0, 1.0)
-             + rate_hz / FS * np.clip(k - onset, 0.0, last - onset))
+    build = rate_hz / FS * np.clip(k - onset, 0.0, last - onset)
     length = max(int(round(release_s * FS)), 1)
     return build - _smooth_step(n, times, excess, length)
-
-
-def _lead_in(first_build: float, rate_hz: float, lead_in: float = PHYSICAL.lead_in_s) -> float:
-    """Samples of the first stick's loading before the first release."""
-    return max(lead_in, first_build / rate_hz) * FS
 
 
 def _ring(shear: np.ndarray, resonance_hz: float, damping: float) -> np.ndarray:
@@ -621,13 +606,12 @@ def stick_slip_train(n: int, onset: int, duration: float, rate_hz: float,
         ``PHYSICAL.max_static_lsb``.
     rng : numpy.random.Generator
     """
-    times, excess, first = release_train(onset, duration, rate_hz, irregularity, rng)
-    shear = shear_sawtooth(n, times, excess, first, rate_hz, release_s)
+    times, excess = release_train(onset, duration, rate_hz, irregularity, rng)
+    shear = shear_sawtooth(n, times, excess, rate_hz, release_s)
     ringing = _ring(shear, resonance_hz, damping)
     ringing *= strength / np.abs(ringing).max()
     static = shear * (static_drop(strength, static_share) / excess.mean())
-    loading = int(round(onset - _lead_in(first, rate_hz)))
-    return StickSlipTrain(ringing, static, shear / excess.mean(), times, max(loading, 0))
+    return StickSlipTrain(ringing, static, shear / excess.mean(), times)
 
 
 def static_drop(strength: float, static_share: float) -> float:
@@ -724,11 +708,9 @@ def _physical_stick_slip(rng, profile, n, strength: tuple[float, float],
             fingers = FINGER_BOTH
         draft.events.append((onset, int(train.releases[-1]) + int(0.1 * FS), fingers,
                              'stick_slip', params['strength_lsb']))
-        draft.busy.append((train.loading, onset))        # the lift loads the contact
         bursts.append({**params, 'finger': finger, 'other_contact': other_contact,
                        'static_drop_lsb': static_drop(params['strength_lsb'],
-                                                      params['static_share']),
-                       'loading_s': train.loading / FS})
+                                                      params['static_share'])})
     draft.params['bursts'] = bursts
     draft.params.update(_add_disturbances(draft, rng, profile, n))
     return draft
