@@ -45,6 +45,7 @@ class GripperModel:
     channel_floor: float = 0.55          # [-]
     channel_kernel_width: float = 0.35   # [-]
     channel_trim: tuple[float, ...] = (1.00, 0.94, 1.07, 1.05, 0.97, 0.92)  # unit spread
+    finger_length: float = 0.072         # sensing span that u in [0, 1] covers [m]
     pressure_curvature: float = 0.004    # concave pressure-deflection term [1/mm]
     shear_gain: tuple[float, float, float] = (0.004, 0.0024, -0.002)       # static [1/N]
     vibration_gain: tuple[float, float, float] = (0.12, 0.08, 0.05)        # dynamic [1/N]
@@ -89,6 +90,13 @@ PROVENANCE = {
                                                           'finger, in the 10-50 Hz band)',
     'channel gains': 'estimate: 8 N -> about 0.6 of full scale on the distal pair, '
                      'distal > middle > root as in the paper Fig. 3b',
+    'finger_length': 'hardware/forte_finger default design (fin-ray 90 mm, mount to tip, = '
+                     'forte_finray_length in forte_description; sensing legs centred at '
+                     '0.78 / 0.5 / 0.22 of it, i.e. 25.2 mm apart): the span on which the '
+                     'channel_centres 0.15 / 0.5 / 0.85 sit on those legs, '
+                     '25.2 mm / 0.35 = 72 mm (u = 0 is 9 mm below the tip, u = 1 9 mm above '
+                     'the mount); the 90 mm is itself an estimate of the paper\'s finger, '
+                     'which gives no dimension',
     'shear_gain, vibration_gain': 'estimate, tuned so the paper slip detector sees stick-slip',
     'temperature_gain': 'ideal gas law (1.39 inH2O/K) x ~2 % of the channel volume heated',
     'noise': 'estimate for an ESP32-S3 ADC (about 1 LSB white) and the ELVR-L01D',
@@ -144,6 +152,73 @@ def channel_gains(model: GripperModel, contact_location: float, contact_spread: 
                         * (model.channel_floor + (1.0 - model.channel_floor) * kernel)
                         * model.channel_trim[3 * finger + index])
     return gains
+
+
+def slid_contact_location(model: GripperModel, contact_location: float,
+                          slide: float | np.ndarray) -> float | np.ndarray:
+    """Contact location after the finger slid ``slide`` up the object.
+
+    The fingers point down at the object: when the object slides down relative to a finger
+    (gross slip, or the arm lifting the fingers along an object the table holds), the
+    contact patch moves along the finger toward the tip by the slide distance.
+
+    Parameters
+    ----------
+    model : GripperModel
+        Its ``finger_length`` is the span that u in [0, 1] covers [m].
+    contact_location : float
+        Location at zero slide, 0 = tip, 1 = root [-].
+    slide : float or numpy.ndarray
+        Finger travel up the object (= object travel down the finger) [m]
+        (:attr:`forte_sim.state.ContactState.slide`); negative: toward the root.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        ``clip(contact_location - slide / finger_length, 0, 1)`` [-], the shape of ``slide``.
+    """
+    return np.clip(contact_location - slide / model.finger_length, 0.0, 1.0)
+
+
+class ChannelGainMap:
+    """:func:`channel_gains` of both fingers for many contact locations at once.
+
+    Parameters
+    ----------
+    model : GripperModel
+    contact_spread : float
+        Extent of the contact along the finger [-] (fixed).
+
+    Notes
+    -----
+    Each gain depends on its own location only (elementwise numpy), so any chunking of the
+    locations gives the same gains. They equal :func:`channel_gains` to rounding (numpy's
+    ``exp`` is not ``math.exp`` bit for bit).
+    """
+
+    def __init__(self, model: GripperModel, contact_spread: float) -> None:
+        base = np.array(model.channel_base_gain * 2) * np.array(model.channel_trim)
+        self._centres = np.array(model.channel_centres)
+        self._width = math.hypot(model.channel_kernel_width, contact_spread)
+        self._floor = base * model.channel_floor
+        self._peak = base * (1.0 - model.channel_floor)
+
+    def __call__(self, locations: np.ndarray) -> np.ndarray:
+        """Gains at ``locations`` (n, 2) [-] of the left and right finger.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, 6)
+            Gains [normalised/mm] in channel order (left distal .. right root).
+        """
+        z = np.subtract(locations[:, :, None], self._centres).reshape(len(locations), 6)
+        z /= self._width
+        z *= z
+        np.negative(z, out=z)
+        np.exp(z, out=z)
+        z *= self._peak
+        z += self._floor
+        return z
 
 
 def finger_force_elastic(model: GripperModel, deflection_mm: float, scale: float) -> float:

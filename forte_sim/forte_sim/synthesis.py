@@ -3,8 +3,11 @@
 Per :meth:`SignalSynthesis.synthesise` call: interpolate the mechanics tick records, add
 the step of every stick-slip release, run the finger's bending resonance (2nd-order IIR
 with carried state), map deflections, shear and temperature to the 6 channel pressures,
-add noise, quantise to 11 bits. Every operation is pointwise or a sequential IIR with
-carried state, so any chunking gives the same data.
+add noise, quantise to 11 bits. The normal load's channel pattern follows the contact as
+it slides along each finger (:func:`~forte_sim.model.slid_contact_location`, per sample);
+the shear, ringing and temperature patterns stay those of the grasp location. Every
+operation is pointwise or a sequential IIR with carried state, so any chunking gives the
+same data.
 """
 from __future__ import annotations
 
@@ -14,11 +17,13 @@ import numpy as np
 from scipy.signal import lfilter
 
 from forte_sim.model import (
+    ChannelGainMap,
     GripperModel,
     channel_gains,
     pressure_response,
     quantise,
     resonator_coefficients,
+    slid_contact_location,
 )
 from forte_sim.noise import SensorNoise, load_cell_reading
 from forte_sim.state import (
@@ -38,7 +43,7 @@ except ImportError:  # pragma: no cover - other scipy layouts: the public functi
 #: Columns of a mechanics tick record (one row per tick boundary).
 RECORD_FIELDS = ('theta', 'deflection_left', 'deflection_right', 'force_left', 'force_right',
                  'shear_left', 'shear_right', 'temperature_left', 'temperature_right',
-                 'lift', 'height', 'slip', 'rotation')
+                 'lift', 'height', 'slip', 'rotation', 'slide_left', 'slide_right')
 _COLUMN = {name: index for index, name in enumerate(RECORD_FIELDS)}
 
 
@@ -49,8 +54,8 @@ def _pair(name: str) -> slice:
 
 _THETA, _LIFT, _HEIGHT, _SLIP, _ROTATION = (
     _COLUMN[name] for name in ('theta', 'lift', 'height', 'slip', 'rotation'))
-_DEFLECTION, _FORCE, _SHEAR, _TEMPERATURE = (
-    _pair(name) for name in ('deflection', 'force', 'shear', 'temperature'))
+_DEFLECTION, _FORCE, _SHEAR, _TEMPERATURE, _SLIDE = (
+    _pair(name) for name in ('deflection', 'force', 'shear', 'temperature', 'slide'))
 _RELEASE_COUPLING = 0.5     # share of a release step felt by the other finger [-]
 _TICK_INDEX = np.arange(1 << 16) // TICK_SAMPLES
 _TICK_FRACTION = (np.arange(1 << 16) % TICK_SAMPLES) / TICK_SAMPLES
@@ -60,13 +65,15 @@ def tick_record(gripper: GripperState, arm: ArmState, body: ObjectState,
                 contact: ContactState) -> tuple:
     """The state at a tick boundary, in the order of :data:`RECORD_FIELDS`.
 
-    The shear excludes the release steps (added at their own sample by the synthesis).
+    The shear excludes the release steps (added at their own sample by the synthesis);
+    the slide of each finger up the object [m] moves its contact along the finger.
     """
     return (gripper.theta, gripper.deflection[0], gripper.deflection[1], gripper.force[0],
             gripper.force[1], contact.shear[0] - contact.jumps[0],
             contact.shear[1] - contact.jumps[1], gripper.temperature[0],
             gripper.temperature[1], arm.lift, body.height,
-            0.5 * (contact.slide[0] + contact.slide[1]), body.rotation)
+            0.5 * (contact.slide[0] + contact.slide[1]), body.rotation, contact.slide[0],
+            contact.slide[1])
 
 
 def _iir(b: np.ndarray, a: np.ndarray, x: np.ndarray,
@@ -99,7 +106,7 @@ class SignalSynthesis:
     seed : int
         Seed of the scene (noise).
     draws : TrialDraws
-        Contact location and spread (channel gains) and transducer offsets.
+        Contact location at zero slide and spread (channel gains) and transducer offsets.
     mass : float
         Object mass [kg] (lowers the finger's bending mode); 0 without an object.
     dynamics : bool
@@ -117,7 +124,10 @@ class SignalSynthesis:
         self._offsets = draws.offsets
         gains = [channel_gains(model, draws.contact_location, draws.contact_spread, finger)
                  for finger in (0, 1)]
+        #: Normal gains at the grasp location (zero slide), as channel_gains gives them.
         self._normal_gain = np.concatenate(gains)                      # (6,)
+        self._location = draws.contact_location
+        self._gain_map = ChannelGainMap(model, draws.contact_spread)
         self._shear_gain = np.array(model.shear_gain * 2)              # (6,)
         self._vibration_gain = np.array(model.vibration_gain * 2)      # (6,)
         self._temperature_gain = model.temperature_gain * np.array((1.0, 0.6, 0.3) * 2)
@@ -188,7 +198,7 @@ class SignalSynthesis:
         """Quantised raw readings of the interpolated samples ``fine``."""
         count = len(fine)
         pressure = pressure_response(self.model, fine[:, _DEFLECTION])   # (n, 2)
-        raw = np.repeat(pressure, 3, axis=1) * self._normal_gain
+        raw = np.repeat(pressure, 3, axis=1) * self._normal_gains(fine[:, _SLIDE])
         raw += np.repeat(fine[:, _TEMPERATURE], 3, axis=1) * self._temperature_gain
         if self._dynamics:
             jumps = self._release_steps(first_sample, count, events, jumps_before)
@@ -203,6 +213,23 @@ class SignalSynthesis:
         raw += self._offsets
         raw += self._noise.read(first_sample, first_sample + count)
         return quantise(raw)
+
+    def _normal_gains(self, slide: np.ndarray) -> np.ndarray:
+        """Normal-load channel gains of each sample, shape (6,) or (n, 6) [normalised/mm].
+
+        ``slide`` (n, 2) [m]: each finger's slide up the object; its contact moves toward
+        the tip by it. A sample whose contact is at the grasp location (zero slide) keeps
+        :func:`channel_gains`' values exactly, so frames without slide are those of a fixed
+        location bit for bit, whatever the chunking.
+        """
+        if not slide.any():
+            return self._normal_gain
+        locations = slid_contact_location(self.model, self._location, slide)
+        gains = self._gain_map(locations)
+        at_grasp = locations == self._location
+        if at_grasp.any():
+            return np.where(np.repeat(at_grasp, 3, axis=1), self._normal_gain, gains)
+        return gains
 
     @staticmethod
     def _release_steps(first_sample: int, count: int, events: list[tuple[int, int, float]],
