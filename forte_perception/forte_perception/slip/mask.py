@@ -24,8 +24,9 @@ Rule (documented in docs/perception.md):
 In the robust mode (:mod:`forte_perception.slip.robust`) a finger may also flag alone, as
 unmasked: its group average (usable channels) above ``single_threshold`` with at least
 ``single_min_rising`` usable channels rising with a variance of at least alpha. The
-quantisation floor is in the PSD features already; the level-shift veto is not applied to
-masked updates (it needs every channel's level).
+quantisation floor is in the PSD features already; the level-shift veto is applied to a
+masked update's flag from its usable channels
+(:func:`forte_perception.slip.robust.masked_level_shift_veto`).
 
 Decisions are guarded as the detector's own: a masked update whose smallest usable
 difference is within ``guard_db`` of delta, or an available group average within
@@ -39,6 +40,7 @@ import numpy as np
 
 from forte_perception.slip.params import SlipFeatures, SlipParams
 from forte_perception.slip.reference import reference_psd_max_db
+from forte_perception.slip.robust import masked_level_shift_veto, veto_reach
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
 
 __all__ = ['SlipMask', 'decide_slip_masked']
@@ -122,7 +124,8 @@ class SlipMask:
         n, hop, v = int(params.window), int(params.hop), int(params.history)
         self.psd_reach = n + int(median_window) - 1
         self.decision_reach = n + (v - 1) * hop + int(median_window) - 1
-        self._keep = n + (v - 1) * hop  # detector samples kept before the newest chunk
+        # detector samples kept before the newest chunk (the PSD history; the veto's reach)
+        self._keep = max(n + (v - 1) * hop, veto_reach(params))
         self._history_keep = v - 1  # psd rows kept before the newest chunk
         self.reference_recomputations = 0
         self.reset()
@@ -188,6 +191,13 @@ class SlipMask:
             self.reference_recomputations += 1
         result.channel_variance[rows] = cv
         result.finger_variance[rows] = fv
+        flagged = rows[sl]
+        if flagged.size and self.params.robust:
+            buffer = np.concatenate(self._sample_parts)
+            veto = masked_level_shift_veto(
+                buffer, self._samples_end - buffer.shape[0], result.sample_index[flagged],
+                result.psd_max_db[flagged], usable[flagged], self.params, self.fs)
+            sl[np.flatnonzero(sl)[veto]] = False
         result.slip[rows] = sl
 
     def _reference_history(self, end: int, buffer: np.ndarray, start: int) -> np.ndarray:

@@ -47,8 +47,9 @@ command, which the detector does not see; it belongs to the controller (which kn
 moves the servo) or to a pipeline input carrying the command. The benchmark runner offers it
 as the separate mode ``robust_servo_gate`` (:mod:`forte_perception.evaluation.benchmark`).
 Updates with masked channels (:mod:`forte_perception.slip.mask`) are re-decided from their
-usable channels with this mode's rule (a finger may flag alone); the level-shift veto is not
-applied to them (it needs every channel's level).
+usable channels with this mode's rule (a finger may flag alone), and their flags get the
+level-shift veto from the usable channels (:func:`masked_level_shift_veto`; before issue 38
+they got none, so with one transducer lost every closing step flagged).
 """
 from __future__ import annotations
 
@@ -59,7 +60,7 @@ import numpy as np
 from forte_perception.slip.params import SlipParams
 from forte_ros.contract import FINGER_CHANNELS
 
-__all__ = ['level_shift_veto', 'veto_reach']
+__all__ = ['level_shift_veto', 'masked_level_shift_veto', 'veto_reach']
 
 
 def veto_reach(params: SlipParams) -> int:
@@ -81,15 +82,38 @@ def _levels(buf: np.ndarray, start: int, ends: np.ndarray, length: int) -> np.nd
 
 
 def _terms(buf: np.ndarray, start: int, ends: np.ndarray, psd: np.ndarray,
-           params: SlipParams, fs: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per finger (f, 2): largest level shift, veto_ratio x largest peak-to-peak amplitude."""
+           params: SlipParams, fs: float, usable: np.ndarray | None = None
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Per finger (f, 2): largest level shift, veto_ratio x largest peak-to-peak amplitude
+    (over the ``usable`` (f, 6) channels; -inf for both where a finger has none)."""
     length, span = int(params.veto_level), int(params.veto_span)
     shift = np.abs(_levels(buf, start, ends, length) - _levels(buf, start, ends - span, length))
     amp = 2.0 * np.sqrt(3.0 * fs / int(params.window) * 10.0 ** (psd / 10.0))
+    if usable is not None:
+        usable = usable & np.isfinite(amp)
+        shift = np.where(usable, shift, -np.inf)
+        amp = np.where(usable, amp, -np.inf)
     fingers = [list(c) for c in FINGER_CHANNELS]
     s = np.stack([shift[:, c].max(axis=1) for c in fingers], axis=1)
     a = np.stack([amp[:, c].max(axis=1) for c in fingers], axis=1) * params.veto_ratio
     return s, a
+
+
+def masked_level_shift_veto(buf: np.ndarray, start: int, ends: np.ndarray, psd: np.ndarray,
+                            usable: np.ndarray, params: SlipParams, fs: float) -> np.ndarray:
+    """The level-shift veto of flagged updates (m,) with unusable channels, from their usable
+    channels only (``usable`` (m, 6); NaN ``psd`` counts as unusable): vetoed when on every
+    finger with a usable channel the largest shift exceeds ``veto_ratio`` times the largest
+    peak-to-peak amplitude. A finger without one has no say; an update without any usable
+    channel, or younger than :func:`veto_reach`, is not vetoed. Returns (m,) bool."""
+    veto = np.zeros(ends.shape[0], bool)
+    old = np.flatnonzero(ends >= veto_reach(params))
+    if not params.robust or not old.size:
+        return veto
+    s, a = _terms(buf, start, ends[old], psd[old], params, fs, usable[old])
+    known = np.isfinite(s)
+    veto[old] = known.any(axis=1) & ((s > a) | ~known).all(axis=1)
+    return veto
 
 
 def level_shift_veto(buf: np.ndarray, start: int, ends: np.ndarray, psd: np.ndarray,

@@ -191,3 +191,28 @@ def test_masked_rule_with_every_channel_usable_is_the_detectors_rule(params):
     unmasked = decide_slip(history, params)[2]
     assert masked.any() and not masked.all()
     np.testing.assert_array_equal(masked, unmasked)
+
+
+def test_masked_updates_get_the_level_shift_veto_from_their_usable_channels():
+    # a 40 LSB step on every channel 300 samples before the update explains a band maximum
+    # of -70 dB (a sinusoid of peak-to-peak 2A = 2.5 LSB); the same band maximum without a
+    # shift is not explained; a finger with no usable channel has no say
+    from forte_perception.slip.robust import masked_level_shift_veto, veto_reach
+    from forte_ros.contract import QUANTUM
+
+    params = SlipParams(mode='robust')
+    end = veto_reach(params) + 100
+    step = np.zeros((end + 1, 6))
+    step[end - 300:] = 40 * QUANTUM
+    psd = np.full((1, 6), -70.0)
+    ends = np.array([end])
+    lost = np.ones((1, 6), bool)
+    lost[0, 0] = False
+    assert masked_level_shift_veto(step, 0, ends, psd, lost, params, 2000.0)[0]
+    assert not masked_level_shift_veto(np.zeros_like(step), 0, ends, psd, lost, params,
+                                       2000.0)[0]
+    one_finger = np.zeros((1, 6), bool)
+    one_finger[0, 3:] = True
+    assert masked_level_shift_veto(step, 0, ends, psd, one_finger, params, 2000.0)[0]
+    assert not masked_level_shift_veto(step, 0, ends - end + veto_reach(params) - 1, psd,
+                                       lost, params, 2000.0)[0]  # too young: no veto
