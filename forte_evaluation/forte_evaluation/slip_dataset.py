@@ -194,7 +194,10 @@ def source_files() -> list[Path]:
     import forte_sim
 
     sim_dir = Path(forte_sim.__file__).parent
-    return ([Path(slip_scenes.__file__), Path(slip_labels.__file__), Path(__file__)]
+    from forte_perception.evaluation import scene_parts, stick_slip
+
+    return ([Path(module.__file__) for module in (slip_scenes, scene_parts, stick_slip,
+                                                   slip_labels)] + [Path(__file__)]
             + sorted(sim_dir.glob('*.py')))
 
 

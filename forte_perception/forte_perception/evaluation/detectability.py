@@ -66,7 +66,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.stats import chi2, ncx2
 
-from forte_perception.evaluation.scenes import FS, LSB, _ring, shear_sawtooth
+from forte_perception.evaluation.scenes import FS, LSB
+from forte_perception.evaluation.stick_slip import _ring, shear_sawtooth
 
 __all__ = ['BAND', 'DELAY', 'FAR_PER_MINUTE', 'Bound', 'band_dof', 'band_energy',
            'band_subspace', 'bound_table', 'burst_ringing', 'detectability_bound',
