@@ -26,7 +26,7 @@ unmasked: its group average (usable channels) above ``single_threshold`` with at
 ``single_min_rising`` usable channels rising with a variance of at least alpha. The
 quantisation floor is in the PSD features already; the level-shift veto is applied to a
 masked update's flag from its usable channels
-(:func:`forte_perception.slip.robust.masked_level_shift_veto`).
+(:func:`forte_perception.slip.robust.level_shift_veto` with ``usable``).
 
 Decisions are guarded as the detector's own: a masked update whose smallest usable
 difference is within ``guard_db`` of delta, or an available group average within
@@ -40,7 +40,7 @@ import numpy as np
 
 from forte_perception.slip.params import SlipFeatures, SlipParams
 from forte_perception.slip.reference import reference_psd_max_db
-from forte_perception.slip.robust import masked_level_shift_veto, veto_reach
+from forte_perception.slip.robust import level_shift_veto, veto_reach
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
 
 __all__ = ['SlipMask', 'decide_slip_masked']
@@ -194,9 +194,10 @@ class SlipMask:
         flagged = rows[sl]
         if flagged.size and self.params.robust:
             buffer = np.concatenate(self._sample_parts)
-            veto = masked_level_shift_veto(
+            veto = level_shift_veto(
                 buffer, self._samples_end - buffer.shape[0], result.sample_index[flagged],
-                result.psd_max_db[flagged], usable[flagged], self.params, self.fs)
+                result.psd_max_db[flagged], np.ones(flagged.size, bool), self.params, self.fs,
+                usable=usable[flagged])
             sl[np.flatnonzero(sl)[veto]] = False
         result.slip[rows] = sl
 

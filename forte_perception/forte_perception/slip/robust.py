@@ -48,7 +48,7 @@ moves the servo) or to a pipeline input carrying the command. The benchmark runn
 as the separate mode ``robust_servo_gate`` (:mod:`forte_perception.evaluation.benchmark`).
 Updates with masked channels (:mod:`forte_perception.slip.mask`) are re-decided from their
 usable channels with this mode's rule (a finger may flag alone), and their flags get the
-level-shift veto from the usable channels (:func:`masked_level_shift_veto`; before issue 38
+level-shift veto from the usable channels (``level_shift_veto(..., usable=...)``; before issue 38
 they got none, so with one transducer lost every closing step flagged).
 """
 from __future__ import annotations
@@ -60,7 +60,7 @@ import numpy as np
 from forte_perception.slip.params import SlipParams
 from forte_ros.contract import FINGER_CHANNELS
 
-__all__ = ['level_shift_veto', 'masked_level_shift_veto', 'veto_reach']
+__all__ = ['level_shift_veto', 'veto_reach']
 
 
 def veto_reach(params: SlipParams) -> int:
@@ -99,26 +99,10 @@ def _terms(buf: np.ndarray, start: int, ends: np.ndarray, psd: np.ndarray,
     return s, a
 
 
-def masked_level_shift_veto(buf: np.ndarray, start: int, ends: np.ndarray, psd: np.ndarray,
-                            usable: np.ndarray, params: SlipParams, fs: float) -> np.ndarray:
-    """The level-shift veto of flagged updates (m,) with unusable channels, from their usable
-    channels only (``usable`` (m, 6); NaN ``psd`` counts as unusable): vetoed when on every
-    finger with a usable channel the largest shift exceeds ``veto_ratio`` times the largest
-    peak-to-peak amplitude. A finger without one has no say; an update without any usable
-    channel, or younger than :func:`veto_reach`, is not vetoed. Returns (m,) bool."""
-    veto = np.zeros(ends.shape[0], bool)
-    old = np.flatnonzero(ends >= veto_reach(params))
-    if not params.robust or not old.size:
-        return veto
-    s, a = _terms(buf, start, ends[old], psd[old], params, fs, usable[old])
-    known = np.isfinite(s)
-    veto[old] = known.any(axis=1) & ((s > a) | ~known).all(axis=1)
-    return veto
-
-
 def level_shift_veto(buf: np.ndarray, start: int, ends: np.ndarray, psd: np.ndarray,
                      slip: np.ndarray, params: SlipParams, fs: float,
-                     exact_psd: Callable[[int], np.ndarray] | None = None) -> np.ndarray:
+                     exact_psd: Callable[[int], np.ndarray] | None = None,
+                     usable: np.ndarray | None = None) -> np.ndarray:
     """Updates whose flag the level-shift rule vetoes, shape (m,), bool.
 
     Parameters
@@ -136,6 +120,10 @@ def level_shift_veto(buf: np.ndarray, start: int, ends: np.ndarray, psd: np.ndar
         ``i -> psd (6,)`` from the reference Welch PSD; when given, a comparison within
         ``guard_variance`` (relative) of equality is re-made from it, so that the fast
         detector's vetoes equal the reference's.
+    usable : ndarray (m, 6), bool, optional
+        Channels usable at each update (default: all). The veto is judged from the usable
+        ones (a NaN ``psd`` counts as unusable): a finger without one has no say, an update
+        without any is not vetoed. Masked updates (:mod:`forte_perception.slip.mask`) use it.
     """
     veto = np.zeros(slip.shape[0], bool)
     if not params.robust:
@@ -143,8 +131,10 @@ def level_shift_veto(buf: np.ndarray, start: int, ends: np.ndarray, psd: np.ndar
     idx = np.nonzero(slip & (ends >= veto_reach(params)))[0]  # absolute: chunking-free
     if not idx.size:
         return veto
-    s, a = _terms(buf, start, ends[idx], psd[idx], params, fs)
-    veto[idx] = (s > a).all(axis=1)
+    s, a = _terms(buf, start, ends[idx], psd[idx], params, fs,
+                  None if usable is None else usable[idx])
+    known = np.isfinite(s)  # a finger with a usable channel
+    veto[idx] = known.any(axis=1) & ((s > a) | ~known).all(axis=1)
     if exact_psd is not None:
         near = (np.abs(s - a) <= params.guard_variance * np.maximum(s, a)).any(axis=1)
         for j in np.nonzero(near)[0]:

@@ -197,7 +197,7 @@ def test_masked_updates_get_the_level_shift_veto_from_their_usable_channels():
     # a 40 LSB step on every channel 300 samples before the update explains a band maximum
     # of -70 dB (a sinusoid of peak-to-peak 2A = 2.5 LSB); the same band maximum without a
     # shift is not explained; a finger with no usable channel has no say
-    from forte_perception.slip.robust import masked_level_shift_veto, veto_reach
+    from forte_perception.slip.robust import level_shift_veto, veto_reach
     from forte_ros.contract import QUANTUM
 
     params = SlipParams(mode='robust')
@@ -208,11 +208,14 @@ def test_masked_updates_get_the_level_shift_veto_from_their_usable_channels():
     ends = np.array([end])
     lost = np.ones((1, 6), bool)
     lost[0, 0] = False
-    assert masked_level_shift_veto(step, 0, ends, psd, lost, params, 2000.0)[0]
-    assert not masked_level_shift_veto(np.zeros_like(step), 0, ends, psd, lost, params,
-                                       2000.0)[0]
+    flag = np.ones(1, bool)
+
+    def veto(buf, at, usable):
+        return level_shift_veto(buf, 0, at, psd, flag, params, 2000.0, usable=usable)[0]
+
+    assert veto(step, ends, lost)
+    assert not veto(np.zeros_like(step), ends, lost)
     one_finger = np.zeros((1, 6), bool)
     one_finger[0, 3:] = True
-    assert masked_level_shift_veto(step, 0, ends, psd, one_finger, params, 2000.0)[0]
-    assert not masked_level_shift_veto(step, 0, ends - end + veto_reach(params) - 1, psd,
-                                       lost, params, 2000.0)[0]  # too young: no veto
+    assert veto(step, ends, one_finger)
+    assert not veto(step, ends - end + veto_reach(params) - 1, lost)  # too young: no veto
