@@ -228,6 +228,11 @@ LIFT_CHECK_PARAMETERS: dict[str, ParameterSpec] = _field_table((
           'the lift that counts as gross slip', 0.01, 1.0),
     _spec('gross_slip_interval', float, 's', 'least time between two gross-slip '
           'tightenings', MIN_DURATION, 10.0),
+    _spec('contact_settle', float, 's', 'time from a grip change (lift start, tightening) to '
+          'the first place of the contact on the fingers', 0.0, 10.0),
+    _spec('contact_shift', float, '', 'load share the middle channels may lose in the lift '
+          'after the grip last changed (more: the contact moved toward the fingertips)',
+          0.0, 2.0),
 ), LIFT_CHECK_PREFIX)
 
 

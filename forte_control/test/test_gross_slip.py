@@ -172,6 +172,7 @@ class SlidingOffWorld:
         self.now = 10.0
         self.theta = 0.6
         self.scale = 1.0
+        self.tightened_at: list[float] = []  # commanded lift of each tightening [m]
 
     def inputs(self) -> state_machine.ControlInputs:
         return state_machine.ControlInputs(
@@ -193,6 +194,7 @@ class SlidingOffWorld:
             if out.servo is not None:
                 if lifting and out.servo.position < self.theta - 1e-9:
                     tightened += 1
+                    self.tightened_at.append(out.lift_height)
                     self.scale = min(1.0, self.scale + 0.15)
                 self.theta = out.servo.position
             lifting = out.state == GraspState.LIFTING
@@ -205,10 +207,18 @@ class SlidingOffWorld:
 
 
 def test_forte_stops_the_lift_while_the_contact_slides_off_and_tightens():
-    out, tightened, paused = SlidingOffWorld().run()
+    """The contact keeps sliding while the arm lifts, so FORTE tightens on beyond the lift
+    height: each tightening means the object slid, and it hangs only as high as the lift
+    since. The lift goes on quiet_time (1 s = 5 mm) past the last one, and the set-down probe
+    lowers probe_distance (2 mm) from there: 3 mm of lift since, within a control step."""
+    world = SlidingOffWorld()
+    out, tightened, paused = world.run()
     assert tightened >= 2 and paused >= tightened
     assert out.outcome == Outcome.LIFTED, out.message
-    assert out.lift_height == pytest.approx(0.03, abs=1e-4)
+    check, params = LiftCheckParams(), state_machine.ControllerParams()
+    since = check.quiet_time * params.lift_speed - check.probe_distance
+    assert world.tightened_at[-1] > 0.03
+    assert out.lift_height - world.tightened_at[-1] == pytest.approx(since, abs=1e-4)
 
 
 def test_without_the_reaction_the_contact_slides_off_and_the_drop_is_reported():

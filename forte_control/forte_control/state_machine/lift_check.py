@@ -4,7 +4,7 @@
 load *disappearing* (LIFTING, HOLDING). It cannot see an object that never left the table: the
 fingers slide up it while FORTE's tightenings make force, deformation and joint current rise
 as in a good grasp.
-:class:`LiftMonitor` judges the lift from three physical facts (the physics, the thresholds and
+:class:`LiftMonitor` judges the lift from four physical facts (the physics, the thresholds and
 what they were measured on: docs/control.md, "Lift verification"):
 
 1. **A free object is centred by the fingers.** Hanging, only the two finger normal forces act
@@ -26,6 +26,18 @@ what they were measured on: docs/control.md, "Lift verification"):
    slip flag or a tightening during the probe voids it (the glass bottle of seed 0 fell 25 mm
    onto the table as the probe began to lower, closed loop with 40-sample updates): the arm
    goes back up and the probe starts again on the quiet grip, at most ``phases.MAX_PROBES`` times.
+4. **A carried object stays where the fingers hold it.** Fingers that slide up an object the
+   table holds carry its contact toward their tips by the arm's travel, and the middle leg of
+   each finger loses load share (:func:`middle_shift`, scale-free: a tightening changes the
+   three channels alike). The pattern of the grip as it last changed (``contact_settle`` after
+   the lift began or the last tightening, :class:`ContactTrack`) and that of the end of the lift
+   must not differ by more than ``contact_shift``. A smooth slide on a light grip (the Pocky
+   box: 2 mu N = 0.33 N < its 0.44 N weight) passes rules 1-2 and reverses the shear by only
+   2 mu N in the probe (-0.0024 to -0.0038 against ``probe_unload``); its contact moved
+   16-22 mm (closed loop, seed 0).
+
+The machine (``phases.GraspPhases._lift_on``) lifts on ``quiet_time`` past a tightening of
+the lift: the object slid, possibly onto the table, and hangs only as high as the lift since.
 
 Rules 1 and 3 compare levels, so they are measured from the open gripper: the finger levels
 of the first ``balance_window`` of the grasp (:class:`OpenGripperLevels`) are the zero of the
@@ -49,10 +61,10 @@ from dataclasses import dataclass, fields
 
 from forte_control.parameters import LIFT_CHECK_PREFIX, range_problems
 from forte_control.state_machine.types import WrenchInput
-from forte_ros.contract import DISTAL, FINGER_CHANNELS, N_CHANNELS, ROOT
+from forte_ros.contract import DISTAL, FINGER_CHANNELS, MIDDLE, N_CHANNELS, ROOT
 
-__all__ = ['LiftCheckParams', 'LiftMonitor', 'LiftVerdict', 'OpenGripperLevels',
-           'closed_on_object_evidence', 'deformation_level', 'finger_levels']
+__all__ = ['ContactTrack', 'LiftCheckParams', 'LiftMonitor', 'LiftVerdict', 'OpenGripperLevels',
+           'closed_on_object_evidence', 'deformation_level', 'finger_levels', 'middle_shift']
 
 
 @dataclass(frozen=True)
@@ -83,6 +95,8 @@ class LiftCheckParams:
     gross_slip_min_lift: float = 0.004  # commanded lift before the balance evidence counts [m]
     gross_slip_decay: float = 0.2       # deformation fall below its lift peak that counts [-]
     gross_slip_interval: float = 0.2    # least time between two gross-slip tightenings [s]
+    contact_settle: float = 0.4         # grip change to the contact's first placing [s]
+    contact_shift: float = 0.0035       # middle channels' share lost: contact moved [normalised]
 
     def problems(self) -> list[str]:
         """Reasons why these thresholds are unusable (empty when valid).
@@ -147,6 +161,102 @@ def deformation_level(filtered: tuple[float, ...] | None) -> float | None:
         return None
     values = [abs(v) for v in filtered if math.isfinite(v)]
     return sum(values) / len(values) if values else None
+
+
+def middle_shift(start: tuple[float, ...], end: tuple[float, ...], floor: float
+                 ) -> float | None:
+    """Load share the middle channels lost between two channel patterns, at the end's scale.
+
+    Per finger ``middle_start * level_end / level_start - middle_end`` (level: the sum of the
+    finger's three channels), summed over both fingers. A change of grip scales a finger's
+    three channels alike and leaves it 0; a contact moving from between the distal and the
+    middle leg toward the fingertip unloads the middle leg relative to the others.
+
+    Parameters
+    ----------
+    start, end : tuple of 6 float
+        Mean tared filtered channels in contract order [normalised].
+    floor : float
+        Least level of each finger in both patterns [normalised].
+
+    Returns
+    -------
+    float or None
+        The shift [normalised] (positive: the middle channels lost load share); None if a
+        finger is below ``floor`` in either pattern.
+    """
+    shift = 0.0
+    for channels in FINGER_CHANNELS:
+        level_start = sum(start[channel] for channel in channels)
+        level_end = sum(end[channel] for channel in channels)
+        if min(level_start, level_end) < floor:
+            return None
+        middle = channels[MIDDLE]
+        shift += start[middle] * level_end / level_start - end[middle]
+    return shift
+
+
+class ContactTrack:
+    """Where the contact sits on the fingers, after the grip last changed and at the end of
+    the lift (rule 4 of :class:`LiftMonitor`).
+
+    The pattern of the first ``window`` seconds that start ``settle`` after the grip last
+    changed (the lift began or the controller tightened: the weight transfers and a slipping
+    object is caught within that time) and the pattern of the last ``window`` seconds of the
+    lift.
+
+    Parameters
+    ----------
+    settle : float
+        Time from a grip change to the first pattern [s].
+    window : float
+        Averaging time of each pattern [s].
+    """
+
+    def __init__(self, settle: float, window: float) -> None:
+        self.settle = settle
+        self.window = window
+        self._change: float | None = None     # stamp of the last grip change [s]
+        self._latest = -math.inf               # stamp of the latest sample [s]
+        self._start: list[float] = [0.0] * N_CHANNELS
+        self._start_count = 0
+        self._tail: deque[tuple[float, tuple[float, ...]]] = deque()
+
+    def lift_flag_age(self) -> float:
+        """Time from the last slip flag of the lift to the latest sample [s] (inf: none)."""
+        return self._latest - self._last_flag if math.isfinite(self._last_flag) else math.inf
+
+    def grip_changed(self) -> None:
+        """The grip changed (a tightening) after the latest sample: the first pattern again."""
+        self._change = self._latest
+        self._start = [0.0] * N_CHANNELS
+        self._start_count = 0
+
+    def update(self, stamp: float, filtered: tuple[float, ...]) -> None:
+        """Take one valid sample of the lift (6 finite tared filtered channels)."""
+        if self._change is None:
+            self._change = stamp  # the lift began
+        self._latest = stamp
+        begin = self._change + self.settle
+        if begin <= stamp < begin + self.window:
+            self._start = [total + value for total, value in zip(self._start, filtered,
+                                                                 strict=True)]
+            self._start_count += 1
+        self._tail.append((stamp, tuple(filtered)))
+        while self._tail and self._tail[0][0] <= stamp - self.window:
+            self._tail.popleft()
+
+    def patterns(self) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+        """(first, last) mean patterns; None unless the first window is complete and over
+        before the last one begins."""
+        if self._change is None or not self._start_count or not self._tail:
+            return None
+        if self._tail[0][0] < self._change + self.settle + self.window:
+            return None
+        first = tuple(total / self._start_count for total in self._start)
+        last = tuple(sum(item[1][channel] for item in self._tail) / len(self._tail)
+                     for channel in range(N_CHANNELS))
+        return first, last
 
 
 class OpenGripperLevels:
@@ -219,6 +329,8 @@ class LiftMonitor:
         self._wrench: WrenchInput | None = None
         self._now = -math.inf             # time of the latest update [s]
         self._peak_level = 0.0            # largest left + right level of the lift so far
+        self._contact = ContactTrack(params.contact_settle, params.probe_window)
+        self._latest = -math.inf          # stamp of the latest sample [s]
 
     def update(self, stamp: float, filtered: tuple[float, ...] | None, slip_flag: bool,
                holding: bool, wrench: WrenchInput | None = None, now: float | None = None
@@ -249,6 +361,9 @@ class LiftMonitor:
             keep = max(p.balance_window, p.probe_window)
             while self._levels and self._levels[0][0] < stamp - keep:
                 self._levels.popleft()
+            if not holding:
+                self._contact.update(stamp, filtered)
+        self._latest = max(self._latest, stamp)
         if holding and self._hold_start is None:
             self._hold_start = stamp
         if slip_flag and not holding:
@@ -267,6 +382,35 @@ class LiftMonitor:
         recent = [item[3] for item in self._levels
                   if item[0] >= self._levels[-1][0] - self.params.probe_window]
         return sum(recent) / len(recent) if recent else None
+
+    def lift_flag_age(self) -> float:
+        """Time from the last slip flag of the lift to the latest sample [s] (inf: none)."""
+        return self._latest - self._last_flag if math.isfinite(self._last_flag) else math.inf
+
+    def grip_changed(self) -> None:
+        """The controller tightened the grip (after the latest sample). While lifting, the
+        contact's place is taken again ``contact_settle`` later (rule 4)."""
+        if self._hold_start is None:
+            self._contact.grip_changed()
+
+    def contact_moved(self) -> str:
+        """Rule 4: the contact moved toward the fingertip after the grip last changed.
+
+        Returns
+        -------
+        str
+            The evidence with its numbers; empty when there is none.
+        """
+        p = self.params
+        patterns = self._contact.patterns()
+        if patterns is None:
+            return ''
+        shift = middle_shift(*patterns, p.min_finger_level)
+        if shift is None or shift <= p.contact_shift:
+            return ''
+        return (f'the middle channels lost {shift:.4f} > {p.contact_shift:g} of their load share '
+                'during the lift after the grip last changed: the contact moved toward the '
+                'fingertips, i.e. the fingers slid up the object')
 
     def hold_quiet(self, quiet: float) -> bool:
         """True when no slip flag came in the last ``quiet`` seconds of the hold [s]."""
@@ -349,6 +493,9 @@ class LiftMonitor:
         if self._last_flag > end - p.quiet_time:
             return LiftVerdict(False, f'{pattern}; slip {end - self._last_flag:.2f} s before '
                                'the end of the lift: the fingers were still sliding')
+        moved = self.contact_moved()
+        if moved:
+            return LiftVerdict(False, f'{pattern}; {moved}')
         evidence = f'{pattern} equal, no slip in the last {p.quiet_time:g} s of the lift'
         if self._probe_reference is not None:
             change = self._mean_shear() - self._probe_reference
