@@ -33,8 +33,9 @@ what they were measured on: docs/control.md, "Lift verification"):
    the lift began or the last tightening, :class:`ContactTrack`) and that of the end of the lift
    must not differ by more than ``contact_shift``. A smooth slide on a light grip (the Pocky
    box: 2 mu N = 0.33 N < its 0.44 N weight) passes rules 1-2 and reverses the shear by only
-   2 mu N in the probe (-0.0024 to -0.0038 against ``probe_unload``); its contact moved
-   16-22 mm (closed loop, seed 0).
+   2 mu N in the probe (-0.0024 to -0.0038 against ``probe_unload``); its middle channels
+   lost 0.0046-0.0083 of load share, carried objects' -0.0032 to +0.0025 (closed loop,
+   seed 0).
 
 The machine (``phases.GraspPhases._lift_on``) lifts on ``quiet_time`` past a tightening of
 the lift: the object slid, possibly onto the table, and hangs only as high as the lift since.
