@@ -223,10 +223,6 @@ class ContactTrack:
         self._start_count = 0
         self._tail: deque[tuple[float, tuple[float, ...]]] = deque()
 
-    def lift_flag_age(self) -> float:
-        """Time from the last slip flag of the lift to the latest sample [s] (inf: none)."""
-        return self._latest - self._last_flag if math.isfinite(self._last_flag) else math.inf
-
     def grip_changed(self) -> None:
         """The grip changed (a tightening) after the latest sample: the first pattern again."""
         self._change = self._latest
