@@ -3,8 +3,9 @@
 Runs signal scenes of the slip set (:mod:`forte_perception.evaluation.scenes`, one split)
 through the perception pipeline under every wiring of
 :data:`forte_perception.evaluation.wiring.WIRINGS` and with each input lost
-(:func:`~forte_perception.evaluation.wiring.masked`), and prints per mode and wiring the
-pooled recall, precision, false flag runs (and the families they fell in) and the
+(:func:`~forte_perception.evaluation.wiring.masked`) and with each input the only one of its
+finger's to read that finger (:func:`~forte_perception.evaluation.wiring.alone`), and prints
+per mode and wiring the pooled recall, precision, false flag runs (and the families they fell in) and the
 leading-finger recall, with the recall as a fraction of the as-built wiring's.
 
 Example::
@@ -21,7 +22,7 @@ from multiprocessing import Pool
 
 from forte_perception.evaluation.scenes import signal_scenes
 from forte_perception.evaluation.slip_metrics import format_value, summarise
-from forte_perception.evaluation.wiring import WIRINGS, masked, run_scene
+from forte_perception.evaluation.wiring import WIRINGS, alone, masked, run_scene
 from forte_perception.slip.params import MODES
 
 
@@ -32,6 +33,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument('--families', nargs='+', default=None, help='default: all')
     parser.add_argument('--lost', nargs='*', type=int, default=list(range(6)),
                         help='inputs lost one at a time (default: each)')
+    parser.add_argument('--alone', nargs='*', type=int, default=list(range(6)),
+                        help='inputs left alone to read their finger, one at a time '
+                        '(default: each)')
     parser.add_argument('--chunk', type=int, default=100, help='samples per pipeline call')
     parser.add_argument('--jobs', type=int, default=2)
     return parser
@@ -45,7 +49,7 @@ def _run(job: tuple) -> tuple:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     scenes = signal_scenes(args.split, args.families)
-    wirings = list(WIRINGS) + [masked(k) for k in args.lost]
+    wirings = list(WIRINGS) + [alone(k) for k in args.alone] + [masked(k) for k in args.lost]
     jobs = [(s, m, w, args.chunk) for m in args.modes for w in wirings for s in scenes]
     started = time.time()
     with Pool(max(1, args.jobs)) as pool:

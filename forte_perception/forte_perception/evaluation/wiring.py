@@ -30,7 +30,7 @@ from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
 from forte_perception.slip.detector import SlipParams
 from forte_ros.contract import N_CHANNELS
 
-__all__ = ['WIRINGS', 'Wiring', 'masked', 'run_scene', 'wiring_summary']
+__all__ = ['WIRINGS', 'Wiring', 'alone', 'masked', 'run_scene', 'wiring_summary']
 
 
 @dataclass(frozen=True)
@@ -73,6 +73,24 @@ WIRINGS: tuple[Wiring, ...] = (
 def masked(channel: int) -> Wiring:
     """The as-built wiring with input ``channel`` lost."""
     return Wiring(f'input {channel} lost', lost=int(channel))
+
+
+def alone(channel: int) -> Wiring:
+    """Input ``channel`` the only one of its finger's inputs that reads that finger.
+
+    Its finger's two other inputs read the other finger's transducers at the same places (a
+    tube pair crossed, or a sensor with fewer elements than FORTE's three per finger): a slip
+    under that finger reaches one of the detector finger's three inputs, beside two that
+    carry the other finger, while the other detector finger reads the other finger whole.
+    """
+    channel = int(channel)
+    finger, place = divmod(channel, 3)
+    other = 3 * (1 - finger)
+    inputs = list(range(N_CHANNELS))
+    for position in range(3):
+        if position != place:
+            inputs[3 * finger + position] = other + position
+    return Wiring(f'input {channel} alone reads its finger', tuple(inputs))
 
 
 def run_scene(scene: SlipScene, mode: str, wiring: Wiring, chunk: int = 20,

@@ -86,7 +86,7 @@ import numpy as np
 from forte_perception.slip.state import QuietLevels, finger_means
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
 
-__all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'expected_delay']
+__all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'expected_delay', 'pooled_excess']
 
 
 @dataclass(frozen=True)
@@ -109,6 +109,9 @@ class CusumParams:
         block is the warm-up.
     level_tau : float
         Time constant of the quiet level [s] (5).
+    single_offset : float
+        A finger's input is the larger of its channels' mean excess and its largest
+        channel's excess less this [dB] (inf: the mean alone; :func:`pooled_excess`).
     """
 
     drift: float = 6.0
@@ -117,6 +120,7 @@ class CusumParams:
     clear_time: float = 0.01
     level_block: float = 0.2
     level_tau: float = 5.0
+    single_offset: float = math.inf
 
     def validate(self) -> None:
         """Raise ValueError with a reason if a value is unusable."""
@@ -128,6 +132,44 @@ class CusumParams:
             raise ValueError(f'margin must be finite, got {self.margin}')
         if not (np.isfinite(self.clear_time) and self.clear_time >= 0):
             raise ValueError(f'clear_time must be >= 0, got {self.clear_time}')
+        if not self.single_offset >= 0:  # NaN fails too; inf is allowed (off)
+            raise ValueError(f'single_offset must be >= 0 dB, got {self.single_offset}')
+
+
+def pooled_excess(z: np.ndarray, single_offset: float) -> np.ndarray:
+    """Per finger, the larger of the mean excess of its usable channels and the largest
+    channel's excess less ``single_offset``.
+
+    The mean is the test for a slip that all three channels of a finger hear. When one
+    channel alone carries it (a contact over one leg of the fin ray, a tube crossed to the
+    other finger's input, a sensor with fewer elements wired to one input) the mean is a
+    third of that channel's excess and a slip of less than three times the drift is never
+    found; the largest channel alone is the test for a slip in one unknown channel. Its
+    quiet value is the largest of three draws and each has the spread of one channel, not of
+    a mean of three: ``single_offset`` puts it back below the drift.
+
+    Parameters
+    ----------
+    z : ndarray, shape (m, 6)
+        Excess of each channel over its quiet level [dB]; NaN: unusable or no level yet.
+    single_offset : float
+        [dB]; inf gives the mean alone.
+
+    Returns
+    -------
+    ndarray, shape (m, 2)
+        [dB]; NaN where a finger has no usable channel.
+    """
+    mean = finger_means(z)
+    if not math.isfinite(single_offset):
+        return mean
+    for finger, channels in enumerate(FINGER_CHANNELS):
+        part = z[:, list(channels)]
+        known = np.isfinite(part).any(axis=1)
+        if known.any():
+            largest = np.max(np.where(np.isfinite(part[known]), part[known], -np.inf), axis=1)
+            mean[known, finger] = np.fmax(mean[known, finger], largest - single_offset)
+    return mean
 
 
 def expected_delay(step_db: float, params: CusumParams, dt: float) -> float:
@@ -148,8 +190,9 @@ class CusumResult:
     statistic : ndarray (m, 2)
         S per finger (left, right) [dB s]; NaN while the finger is slipping.
     excess : ndarray (m, 2)
-        Mean excess of the finger's usable channels over their quiet levels [dB]; NaN
-        without a usable channel.
+        The finger's input (:func:`pooled_excess`; the mean excess of its usable channels
+        over their quiet levels with the default ``single_offset``) [dB]; NaN without a
+        usable channel.
     alarm : ndarray (m, 2), bool
         A finger's (not vetoed) alarm: the slip event.
     slipping : ndarray (m, 2), bool
@@ -250,7 +293,7 @@ class BandPowerCusum:
         level = self._levels.level
         z = seg - level  # NaN where the channel is unusable or has no level yet
         out.active[lo:hi] = np.isfinite(z).any(axis=1) | np.isfinite(level).any()
-        excess = finger_means(z)  # NaN: the finger has no usable channel
+        excess = pooled_excess(z, self.params.single_offset)  # NaN: no usable channel
         quiet = np.zeros(seg.shape, bool)
         for f, finger in enumerate(self._fingers):
             zbar = excess[:, f]

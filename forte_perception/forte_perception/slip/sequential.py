@@ -15,7 +15,12 @@ in dB over each channel's own quiet level (the *excess* ``z``). A change of its 
 ``S_f = max(0, S_f + (zbar_f - k) dt)``, alarm at ``S_f > h``
 (:class:`forte_perception.slip.cusum.BandPowerCusum`, whose derivation holds unchanged:
 only its input is the fast power instead of the PSD maximum). A finger alarms alone, so
-stick-slip under the leading finger is heard whatever the trailing finger does.
+stick-slip under the leading finger is heard whatever the trailing finger does. Nor does a
+finger need all three channels (issue 38): its input is the larger of the mean excess and the
+largest channel's excess less ``single_offset`` (4 dB, :func:`~forte_perception.slip.cusum.
+pooled_excess`), so a slip that one input carries alone (a contact over one leg, a tube
+crossed to the other finger's input, a recording wired to one input) is not diluted to a
+third.
 
 **What else raises the fast power, and the vetoes** (asked at every alarm; a vetoed alarm
 restarts ``S``):
@@ -71,7 +76,8 @@ class SequentialParams:
     Attributes
     ----------
     cusum : CusumParams
-        Drift k [dB] and threshold h [dB s] of the CUSUM on the fast excess (8, 0.05).
+        Drift k [dB], threshold h [dB s] and single-channel offset [dB] of the CUSUM on the
+        fast excess (8, 0.05, 4).
     window : float
         Averaging window of the fast band power the CUSUM reads [s] (0.03; the slipping
         state averages over its own window).
@@ -88,8 +94,8 @@ class SequentialParams:
         (0.1; :mod:`forte_perception.slip.servo_gate`).
     """
 
-    cusum: CusumParams = field(default_factory=lambda: CusumParams(drift=8.0, threshold=0.05,
-                                                                    clear_time=0.05))
+    cusum: CusumParams = field(default_factory=lambda: CusumParams(
+        drift=8.0, threshold=0.05, clear_time=0.05, single_offset=4.0))
     window: float = 0.03
     veto_ratio: float = 0.1
     shift_length: int = 200

@@ -7,7 +7,7 @@ import pytest
 
 from forte_perception.evaluation.benchmark import MODES, cusum_mode, prepare
 from forte_perception.evaluation.scenes import make_scene
-from forte_perception.slip.cusum import BandPowerCusum, CusumParams, expected_delay
+from forte_perception.slip.cusum import BandPowerCusum, CusumParams, expected_delay, pooled_excess
 
 DT = 4 / 2000.0        # hop 4 at 2 kHz
 LEVEL = -80.0          # quiet level of every channel [dB]
@@ -131,9 +131,42 @@ def test_a_vetoed_alarm_raises_nothing_and_the_statistic_restarts():
     assert np.flatnonzero(out.slip)[0] == 303           # two more updates from S = 0
 
 
+def test_one_channel_alone_is_pooled_at_its_excess_less_the_offset():
+    z = np.array([[12.0, 0.0, 0.0, 3.0, 3.0, 3.0],        # one channel of the left finger
+                  [9.0, 9.0, 9.0, np.nan, 1.0, np.nan],   # a whole finger; one usable channel
+                  [np.nan] * 3 + [-2.0, -1.0, 0.0]])      # a blind finger, a quiet one
+    np.testing.assert_allclose(pooled_excess(z, math.inf), [[4.0, 3.0], [9.0, 1.0],
+                                                            [np.nan, -1.0]])
+    np.testing.assert_allclose(pooled_excess(z, 4.0), [[8.0, 3.0], [9.0, 1.0],
+                                                       [np.nan, -1.0]])
+
+
+def test_a_step_on_one_channel_alarms_only_with_the_single_channel_route():
+    """20 dB on one channel: its finger's mean rises 6.7 dB, under the 8 dB drift, so the
+    mean alone never alarms; less a 4 dB offset the channel gives 16 dB, which alarms after
+    expected_delay(16) updates."""
+    y = constant(600)
+    y[300:, 4] += 20.0
+    mean_only = CusumParams(drift=8.0)
+    assert not BandPowerCusum(DT, mean_only).update(y).slip.any()
+    pooled = CusumParams(drift=8.0, single_offset=4.0)
+    out = BandPowerCusum(DT, pooled).update(y)
+    n = expected_delay(16.0, pooled, DT)
+    np.testing.assert_array_equal(np.flatnonzero(out.slip), [300 + n - 1])
+    assert out.alarm[300 + n - 1, 1] and not out.alarm[:, 0].any()
+
+
+def test_quiet_channels_never_alarm_through_the_single_channel_route():
+    rng = np.random.default_rng(1)
+    y = LEVEL + rng.standard_normal((200_000, 6))        # 1 dB spread, as above
+    out = BandPowerCusum(DT, CusumParams(drift=8.0, single_offset=4.0)).update(y)
+    assert not out.slip.any()
+
+
 def test_parameters_are_validated():
     for bad in (dict(drift=0.0), dict(threshold=-1.0), dict(margin=math.nan),
-                dict(clear_time=-0.1), dict(level_tau=math.inf)):
+                dict(clear_time=-0.1), dict(level_tau=math.inf), dict(single_offset=-1.0),
+                dict(single_offset=math.nan)):
         with pytest.raises(ValueError):
             CusumParams(**bad).validate()
     with pytest.raises(ValueError):
