@@ -79,6 +79,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from forte_perception.slip.params import MODES, SlipParams
 from forte_ros.contract import SAMPLE_RATE as FS
 
 if TYPE_CHECKING:  # the evaluation modules load scipy: not at import (the lift node's start)
@@ -462,10 +463,13 @@ def _parser() -> argparse.ArgumentParser:
                         help='lift duration at 1 mm/s [s]')
     parser.add_argument('--thresholds', type=float, nargs='+', default=None,
                         help='values of T [dB^2] (default: forte_tune_slip\'s)')
+    parser.add_argument('--sequential-thresholds', type=float, nargs='+', default=None,
+                        help='sequential mode: CUSUM thresholds h [dB s] (default: '
+                        'forte_tune_slip\'s)')
     parser.add_argument('--thresholds-only', action='store_true',
                         help='sweep T only (robust mode parameters at their defaults)')
-    parser.add_argument('--modes', nargs='+', choices=('robust', 'paper'),
-                        default=['robust'], help='detector modes swept (default: the node\'s)')
+    parser.add_argument('--modes', nargs='+', choices=MODES, default=[SlipParams().mode],
+                        help='detector modes swept (default: the node\'s)')
     parser.add_argument('--held-out', choices=('quick', 'full', 'none'), default='full',
                         help='held-out check on the slip set: quick subset, full, or none')
     parser.add_argument('--cache-dir', type=Path, default=Path('out/slip_dataset'))
@@ -500,6 +504,7 @@ def main(argv: list[str] | None = None) -> int:
     from forte_perception.evaluation.held_out import compare_settings
     from forte_perception.evaluation.threshold_sweep import (
         DEFAULT_ROBUST_GRID,
+        DEFAULT_SEQUENTIAL_THRESHOLDS,
         DEFAULT_THRESHOLDS,
         table,
         write_overlay,
@@ -511,7 +516,8 @@ def main(argv: list[str] | None = None) -> int:
     results = _characterise_all(args, print)
     recordings = [r.recording() for r in results]
     grid = None if args.thresholds_only else dict(DEFAULT_ROBUST_GRID)
-    settings, _ = settings_for(args.modes, args.thresholds or DEFAULT_THRESHOLDS, grid, FS)
+    settings, _ = settings_for(args.modes, args.thresholds or DEFAULT_THRESHOLDS, grid, FS,
+                               args.sequential_thresholds or DEFAULT_SEQUENTIAL_THRESHOLDS)
     rows, choice = tune(recordings, settings)
     print('\n' + table(rows, choice.row) + f'\n\nrecommended: {choice.row.varied} '
           f'({choice.rule})')

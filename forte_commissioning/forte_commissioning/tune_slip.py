@@ -13,7 +13,8 @@ forte_commissioning.slip_characterization`` writes). Onsets: those in the record
 :mod:`forte_perception.evaluation.onset_labels`; columns ``recording,onset_s``), e.g. marked
 by an operator from video on the robot.
 
-Sweeps T (``--thresholds``) in each detector mode of ``--modes`` (default: the node's
+Sweeps T (``--thresholds``; in the sequential mode the CUSUM threshold h,
+``--sequential-thresholds``) in each detector mode of ``--modes`` (default: the node's
 default mode only; characterisation lifts hold no distractors, so they cannot tell whether
 to switch the mode, which the slip set decides: docs/perception.md) and, in the robust
 mode, the robust mode's own one-finger threshold and level-shift veto ratio
@@ -45,6 +46,7 @@ from forte_perception.evaluation.onset_labels import (
 from forte_perception.evaluation.slip_metrics import MAX_LATENCY, format_value
 from forte_perception.evaluation.threshold_sweep import (
     DEFAULT_ROBUST_GRID,
+    DEFAULT_SEQUENTIAL_THRESHOLDS,
     DEFAULT_THRESHOLDS,
     PRECISION_FLOOR,
     Recommendation,
@@ -61,20 +63,24 @@ __all__ = ['main', 'overlay_comment', 'settings_for', 'tune']
 
 
 def settings_for(modes: Sequence[str], thresholds: Sequence[float],
-                 robust_grid: dict | None, fs: float) -> tuple[list, list]:
+                 robust_grid: dict | None, fs: float,
+                 sequential_thresholds: Sequence[float] = DEFAULT_SEQUENTIAL_THRESHOLDS
+                 ) -> tuple[list, list]:
     """The grid of a sweep: per detector mode the T values, in the robust mode times the
-    robust grid.
+    robust grid; in the sequential mode the CUSUM thresholds h (T does not act there).
 
     Parameters
     ----------
     modes : sequence of str
-        Detector modes (``'robust'``, ``'paper'``).
+        Detector modes (``'sequential'``, ``'robust'``, ``'paper'``).
     thresholds : sequence of float
         Values of T [dB^2].
     robust_grid : dict, optional
         Robust-mode field -> values (e.g. :data:`DEFAULT_ROBUST_GRID`); None: defaults only.
     fs : float
         Sampling rate [Hz].
+    sequential_thresholds : sequence of float
+        Values of h [dB s] in the sequential mode.
 
     Returns
     -------
@@ -86,7 +92,10 @@ def settings_for(modes: Sequence[str], thresholds: Sequence[float],
     settings, skipped = [], []
     for mode in modes:
         axes = {'mode': (mode,)} if len(modes) > 1 else {}
-        axes['threshold'] = tuple(thresholds)
+        if mode == 'sequential':
+            axes['sequential_threshold'] = tuple(sequential_thresholds)
+        else:
+            axes['threshold'] = tuple(thresholds)
         if mode == 'robust' and robust_grid:
             axes.update(robust_grid)
         found, refused = parameter_grid(SlipParams(mode=mode), axes, fs)
@@ -129,6 +138,9 @@ def _parser() -> argparse.ArgumentParser:
                              f'{SlipParams().mode!r})')
     parser.add_argument('--thresholds', type=float, nargs='+', default=DEFAULT_THRESHOLDS,
                         help='values of T [dB^2]')
+    parser.add_argument('--sequential-thresholds', type=float, nargs='+',
+                        default=DEFAULT_SEQUENTIAL_THRESHOLDS,
+                        help='sequential mode: CUSUM thresholds h [dB s]')
     parser.add_argument('--single-thresholds', type=float, nargs='+',
                         default=DEFAULT_ROBUST_GRID['single_threshold'],
                         help='robust mode: one-finger thresholds [dB^2]')
@@ -161,7 +173,8 @@ def main(argv: list[str] | None = None) -> int:
         recordings = _load(args.recordings, args.labels)
         grid = None if args.thresholds_only else {'single_threshold': args.single_thresholds,
                                                   'veto_ratio': args.veto_ratios}
-        settings, skipped = settings_for(args.modes, args.thresholds, grid, recordings[0].fs)
+        settings, skipped = settings_for(args.modes, args.thresholds, grid, recordings[0].fs,
+                                         args.sequential_thresholds)
         if not settings:
             raise ValueError('no valid setting in the grid')
         rows, choice = tune(recordings, settings, args.precision_floor, args.max_latency)

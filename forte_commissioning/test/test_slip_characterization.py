@@ -82,7 +82,7 @@ def test_characterisation_reports_per_threshold(characterisations, tmp_path):
     choice = recommend(rows)
     print('\nrobust mode, T swept, against the simulator ground truth:\n'
           + table(rows, choice.row) + f'\nrecommended {choice.row.varied}')
-    default = next(r for r in rows if r.params == SlipParams())
+    default = next(r for r in rows if r.params == SlipParams(mode='robust'))
     assert default.onsets >= 10
     assert default.recall >= 0.8 and default.precision >= 0.9
     assert default.latency(50) < 0.1                  # paper: typically below 100 ms
@@ -117,16 +117,19 @@ def test_recommended_overlay_no_worse_on_held_out(characterisations, tmp_path):
 def test_the_command(tmp_path, capsys):
     out = tmp_path / 'out'
     assert procedure.main(['--objects', 'jam_jar', '--trials', '2', '--thresholds', '1', '2',
-                           '--thresholds-only', '--held-out', 'none', '--output',
-                           str(out)]) == 0
+                           '--sequential-thresholds', '0.05', '0.1', '--thresholds-only',
+                           '--held-out', 'none', '--output', str(out)]) == 0
     text = capsys.readouterr().out
     assert 'jam_jar: theta_zeroF' in text and '**<-**' in text
     assert {p.name for p in out.iterdir()} == {'jam_jar.npz', 'ground_truth_onsets.csv',
                                                'slip_overlay.yaml', 'report.json'}
     document = yaml.safe_load((out / 'slip_overlay.yaml').read_text())
     assert set(document['perception']['ros__parameters']) >= {'slip_mode', 'slip_threshold'}
+    assert document['perception']['ros__parameters']['slip_mode'] == 'sequential'  # the node's
     report = json.loads((out / 'report.json').read_text())
     assert report['objects'][0]['object'] == 'jam_jar' and len(report['sweep']) == 2
+    assert {row['varied']['sequential_threshold'] for row in report['sweep']} == {0.05, 0.1}
+    assert max(row['detected'] for row in report['sweep']) > 0  # the sequential detector ran
 
 
 def test_the_search_stepper_bisects():

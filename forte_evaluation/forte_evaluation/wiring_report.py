@@ -5,8 +5,8 @@ through the perception pipeline under every wiring of
 :data:`forte_perception.evaluation.wiring.WIRINGS` and with each input lost
 (:func:`~forte_perception.evaluation.wiring.masked`) and with each input the only one of its
 finger's to read that finger (:func:`~forte_perception.evaluation.wiring.alone`), and prints
-per mode and wiring the pooled recall, precision, false flag runs (and the families they fell in) and the
-leading-finger recall, with the recall as a fraction of the as-built wiring's.
+per mode and wiring the pooled recall, precision, false flag runs (and the families they fell
+in) and the leading-finger recall, with the recall as a fraction of the as-built wiring's.
 
 Example::
 

@@ -170,14 +170,14 @@ def test_quick_evaluation_end_to_end(tmp_path, capsys):
         assert sum(sum(row.values()) for row in entry['final']['matrix'].values()) == 8
     assert all(trial['object_state_at_outcome'] for trial in data['trials'])
     # both slip detector modes, each a whole benchmark, compared side by side
-    assert data['config']['slip_modes'] == ['robust', 'paper']
-    assert set(data['by_slip_mode']) == {'robust', 'paper'}
+    assert data['config']['slip_modes'] == ['sequential', 'paper']
+    assert set(data['by_slip_mode']) == {'sequential', 'paper'}
     for mode, entry in data['by_slip_mode'].items():
         assert len(entry['trials']) == 24
         assert {trial['slip_mode'] for trial in entry['trials']} == {mode}
-    assert data['trials'] == data['by_slip_mode']['robust']['trials']
+    assert data['trials'] == data['by_slip_mode']['sequential']['trials']
     assert 'FORTE in each slip detector mode' in printed
-    assert 'FORTE (robust)' in printed and 'Prec. (paper)' in printed
+    assert 'FORTE (sequential)' in printed and 'Prec. (paper)' in printed
 
 
 def test_mode_comparison_table_counts_each_mode_separately():

@@ -34,11 +34,11 @@ def test_selections_narrow_the_set(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(slip_benchmark, 'build_set', small_set)
     assert slip_benchmark.main(['--repeats', '1', '--output', str(tmp_path), '--split',
                                 'held_out', '--signal-only']) == 0
-    document = json.loads((tmp_path / 'robust.json').read_text())  # the default mode
+    document = json.loads((tmp_path / 'sequential.json').read_text())  # the default mode
     assert list(document['results']) == ['held_out']
     assert document['config']['scenes'] == 1
     assert slip_benchmark.main(['--output', str(tmp_path), '--families', 'ramp']) == 2
 
 
 def test_the_default_mode_is_the_perception_nodes():
-    assert slip_benchmark._parser().parse_args([]).mode == RECOMMENDED_MODE == 'robust'
+    assert slip_benchmark._parser().parse_args([]).mode == RECOMMENDED_MODE == 'sequential'

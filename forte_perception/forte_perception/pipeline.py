@@ -48,7 +48,7 @@ from forte_perception.force import ForceFeatures, ForceModel, window_lengths
 from forte_perception.median import MEDIAN_WINDOW, RunningMedian
 from forte_perception.slip.detector import SlipDetector, SlipParams
 from forte_perception.slip.mask import SlipMask
-from forte_perception.slip.sequential import SequentialDetector
+from forte_perception.slip.sequential import SequentialDetector, SequentialParams
 from forte_perception.slip.servo_gate import ServoGate
 from forte_perception.slip.state import SlippingParams, SlippingState
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, SAMPLE_RATE
@@ -286,7 +286,7 @@ class PerceptionPipeline:
         self._slip_mask = SlipMask(c.fs, c.slip.features, c.median_window)
         # the slipping state: the sequential detector's own, or one beside the PSD rule
         self._sequential = (SequentialDetector(c.fs, c.slip.hop, (c.slip.f_min, c.slip.f_max),
-                                               state=c.slipping)
+                                               SequentialParams.from_slip(c.slip), c.slipping)
                             if c.slip.mode == 'sequential' else None)
         self._slipping = (SlippingState(c.fs, (c.slip.f_min, c.slip.f_max), c.slip.hop / c.fs,
                                         c.slipping) if self._sequential is None else None)

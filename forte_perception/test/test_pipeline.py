@@ -9,7 +9,7 @@ from forte_perception.pipeline import (
     PipelineConfig,
     contact_flags,
 )
-from forte_perception.slip.detector import slip_features
+from forte_perception.slip.detector import SlipParams, slip_features
 from forte_perception.testing import FS, random_walk, slip_bursts
 
 
@@ -46,14 +46,16 @@ def test_auto_tare_is_the_mean_of_the_first_quiet_samples():
 
 @pytest.mark.parametrize('growth,limit', [(450.0, 1.0), (600.0, 5.0)])
 def test_online_equals_offline_batch(growth, limit):
-    """All values valid: the unmasked paper algorithm, equal to the batch functions."""
+    """All values valid: the unmasked PSD detector (robust mode; the batch function has no
+    sequential events), equal to the batch functions."""
     x = stream(growth_db_per_s=growth)
     assert np.abs(x).max() < limit
     model = toy_model()
-    pipe = PerceptionPipeline(PipelineConfig(input_limit=limit), model=model)
+    psd_mode = SlipParams(mode='robust')
+    pipe = PerceptionPipeline(PipelineConfig(slip=psd_mode, input_limit=limit), model=model)
     outs = run(pipe, x, chunk=20)
     filt = running_median(x)
-    slip = slip_features(filt)
+    slip = slip_features(filt, params=psd_mode)
     feats = force_features(filt) - np.tile(pipe.baseline, 4)
     force, valid = model.predict(feats, return_valid=True)
     contact = contact_flags(filt, np.zeros((0, 6)), 200, 0.01)

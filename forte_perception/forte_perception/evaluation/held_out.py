@@ -13,11 +13,19 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 
-from forte_perception.evaluation.benchmark import Detection, SensorInput, prepare, run_mode
+from forte_perception.evaluation.benchmark import (
+    Detection,
+    SensorInput,
+    prepare,
+    run_mode,
+    sequential_mode,
+)
 from forte_perception.evaluation.labels import SlipScene
 from forte_perception.evaluation.slip_metrics import format_value, summarise
 from forte_perception.slip.detector import SlipParams, slip_features
+from forte_perception.slip.sequential import SequentialParams
 
 __all__ = ['Comparison', 'compare_settings', 'held_out_scenes']
 
@@ -30,6 +38,9 @@ def held_out_scenes(scenes: Sequence[SlipScene], exclude_objects: Sequence[str] 
 
 
 def _mode(params: SlipParams):
+    if params.mode == 'sequential':  # streaming, with the scene's servo gate
+        return partial(sequential_mode, params=SequentialParams.from_slip(params))
+
     def detect(inp: SensorInput) -> Detection:
         res = slip_features(inp.filtered, fs=inp.fs, params=params)
         return Detection(res.sample_index, res.slip, int(params.hop))

@@ -1,4 +1,5 @@
-"""Sweep the slip threshold T (and the robust mode's own parameters) over labelled recordings.
+"""Sweep the slip threshold (T; h in the sequential mode) and the robust mode's own parameters
+over labelled recordings.
 
 The tuning half of the paper's slip characterisation: recordings of lifts that slip (the
 procedure ``forte_commissioning.slip_characterization`` in simulation, or bags made on
@@ -24,8 +25,9 @@ detector, flags outside the recording's ``mask`` ignored):
 load (only fields that have a node parameter, :data:`NODE_PARAMETERS`, differ from the
 default :class:`~forte_perception.slip.params.SlipParams`), those with precision >=
 ``precision_floor`` (default 0.9); of these the highest F1; ties (equal F1) go to the lower
-latency p50, then to the threshold closest to the default T, then to fewer false runs. If no
-setting reaches the floor, the highest F1 of all loadable settings, and the result says so.
+latency p50, then to the threshold closest to its default (T; h in the sequential mode),
+then to fewer false runs. If no setting reaches the floor, the highest F1 of all loadable
+settings, and the result says so.
 """
 from __future__ import annotations
 
@@ -50,11 +52,12 @@ from forte_perception.evaluation.slip_metrics import (
 )
 from forte_perception.median import MEDIAN_WINDOW, running_median
 from forte_perception.slip.detector import SlipParams, slip_features
+from forte_perception.slip.sequential import SequentialDetector, SequentialParams
 
-__all__ = ['DEFAULT_ROBUST_GRID', 'DEFAULT_THRESHOLDS', 'NODE_NAME', 'NODE_PARAMETERS',
-           'PRECISION_FLOOR', 'Recommendation', 'SweepRow', 'node_settable', 'overlay',
-           'overlay_yaml', 'parameter_grid', 'params_from_overlay', 'prefilter', 'recommend',
-           'score', 'sweep', 'table', 'write_overlay']
+__all__ = ['DEFAULT_ROBUST_GRID', 'DEFAULT_SEQUENTIAL_THRESHOLDS', 'DEFAULT_THRESHOLDS',
+           'NODE_NAME', 'NODE_PARAMETERS', 'PRECISION_FLOOR', 'Recommendation', 'SweepRow',
+           'node_settable', 'overlay', 'overlay_yaml', 'parameter_grid', 'params_from_overlay',
+           'prefilter', 'recommend', 'score', 'sweep', 'table', 'write_overlay']
 
 #: Node name of the perception node in every graph (forte_bringup.graph), the overlay's key.
 NODE_NAME = 'perception'
@@ -65,9 +68,15 @@ NODE_PARAMETERS = {'window': 'slip_window', 'hop': 'slip_hop', 'f_min': 'slip_f_
                    'alpha': 'slip_alpha', 'threshold': 'slip_threshold', 'mode': 'slip_mode',
                    'single_threshold': 'slip_single_threshold',
                    'single_min_rising': 'slip_single_min_rising',
-                   'veto_ratio': 'slip_veto_ratio'}
+                   'veto_ratio': 'slip_veto_ratio',
+                   'sequential_threshold': 'slip_sequential_threshold',
+                   'sequential_drift': 'slip_sequential_drift',
+                   'sequential_single_offset': 'slip_sequential_single_offset'}
 #: Thresholds T swept by default [dB^2] (the paper's T = 2 among them).
 DEFAULT_THRESHOLDS = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 6.0)
+#: The sequential mode's CUSUM thresholds h swept by default [dB s] (its default 0.05 among
+#: them); T does not act on the sequential mode's events.
+DEFAULT_SEQUENTIAL_THRESHOLDS = (0.02, 0.05, 0.1, 0.2)
 #: The robust mode's own parameters swept by default (with every T): the one-finger
 #: threshold [dB^2] and the level-shift veto ratio [1]; defaults 3.0 and 0.33 included.
 DEFAULT_ROBUST_GRID = {'single_threshold': (3.0, 4.5, 6.0), 'veto_ratio': (0.2, 0.33, 0.5)}
@@ -203,6 +212,19 @@ def _trial_bounds(rec: LabelledRecording) -> list[tuple[int, int]]:
     return list(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True))
 
 
+def _flags(filtered: np.ndarray, fs: float, params: SlipParams) -> np.ndarray:
+    """Sample indices of the slip flags of one trial (median-filtered frames (n, 6)): the
+    batch PSD detector in the paper and robust modes, the streaming sequential detector (no
+    servo gate: the recordings carry no command stream) in the sequential mode."""
+    if params.mode == 'sequential':
+        detector = SequentialDetector(fs, params.hop, (params.f_min, params.f_max),
+                                      SequentialParams.from_slip(params))
+        ends, slip, _ = detector.update(filtered)
+        return ends[slip]
+    res = slip_features(filtered, fs=fs, params=params)
+    return res.sample_index[res.slip]
+
+
 def score(recordings: Sequence[LabelledRecording], params: SlipParams, varied: dict | None = None,
           max_latency: float = MAX_LATENCY) -> SweepRow:
     """Scores of one setting over median-filtered recordings (module docstring).
@@ -231,8 +253,7 @@ def score(recordings: Sequence[LabelledRecording], params: SlipParams, varied: d
         window = int(round(max_latency * rec.fs))
         for a, b in _trial_bounds(rec):
             onsets = np.sort(rec.onsets[(rec.onsets >= a) & (rec.onsets < b)]) - a
-            res = slip_features(rec.frames[a:b], fs=rec.fs, params=params)
-            flags = res.sample_index[res.slip]
+            flags = _flags(rec.frames[a:b], rec.fs, params)
             if rec.mask is not None:
                 flags = flags[rec.mask[a + flags]]
             latency = match_onsets(onsets, flags, window, before_next_onset=True)
@@ -277,10 +298,12 @@ class Recommendation:
     rule: str
 
 
-def _rank(row: SweepRow, default_threshold: float) -> tuple:
+def _rank(row: SweepRow) -> tuple:
     f1 = row.f1 if not math.isnan(row.f1) else -1.0
     p50 = row.latency(50) if not math.isnan(row.latency(50)) else math.inf
-    return (-f1, p50, abs(row.params.threshold - default_threshold), row.false_runs)
+    name = 'sequential_threshold' if row.params.mode == 'sequential' else 'threshold'
+    distance = abs(getattr(row.params, name) - getattr(SlipParams(), name))
+    return (-f1, p50, distance, row.false_runs)
 
 
 def recommend(rows: Sequence[SweepRow], precision_floor: float = PRECISION_FLOOR
@@ -297,13 +320,13 @@ def recommend(rows: Sequence[SweepRow], precision_floor: float = PRECISION_FLOOR
     if not loadable:
         raise ValueError('no swept setting can be loaded by the perception node; include the '
                          'default robust parameters in the grid')
-    default_t = SlipParams().threshold
     rule = (f'loadable settings with precision >= {precision_floor:g}: highest F1, then lowest '
-            'latency p50, then T closest to the default, then fewest false runs')
+            'latency p50, then the threshold (T, or h in the sequential mode) closest to the '
+            'default, then fewest false runs')
     passing = [r for r in loadable if not math.isnan(r.precision)
                and r.precision >= precision_floor]
     chosen = passing or loadable
-    best = min(chosen, key=lambda r: _rank(r, default_t))
+    best = min(chosen, key=_rank)
     if not passing:
         rule += '; no setting reached the floor: highest F1 of all loadable settings'
     return Recommendation(best, bool(passing), rule)

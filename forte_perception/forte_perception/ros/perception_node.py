@@ -118,10 +118,11 @@ PARAMETERS: dict[str, ParameterSpec] = parameter_table([
                   1e6, field='slip.alpha'),
     ParameterSpec('slip_threshold', float, 'slip threshold T', 'dB^2', -1e3, 1e6,
                   field='slip.threshold'),
-    ParameterSpec('slip_mode', str, "slip detector mode: 'robust' (quantisation floor, "
-                  "level-shift veto, one finger alone; wins on the held-out slip set), "
-                  "'paper' (the paper's algorithm bit for bit) or 'sequential' (issue 26's "
-                  'candidate: CUSUM on the fast band power)', field='slip.mode'),
+    ParameterSpec('slip_mode', str, "slip detector mode: 'sequential' (CUSUM on the fast "
+                  'band power per finger, one channel may carry it; wins on the held-out slip '
+                  "set, wirings and closed loop), 'robust' (the paper's rule with a "
+                  "quantisation floor, level-shift veto, one finger alone) or 'paper' (the "
+                  "paper's algorithm bit for bit)", field='slip.mode'),
     ParameterSpec('slip_single_threshold', float, "robust mode: a finger may flag slip alone "
                   'when its group average exceeds this (at least slip_threshold)', 'dB^2',
                   -1e3, 1e6, field='slip.single_threshold'),
@@ -131,6 +132,15 @@ PARAMETERS: dict[str, ParameterSpec] = parameter_table([
     ParameterSpec('slip_veto_ratio', float, 'robust mode: a flag is vetoed when, on every '
                   'finger, the level shift exceeds this times the 10-50 Hz amplitude its PSD '
                   'rise implies', low=0.0, high=1e6, field='slip.veto_ratio'),
+    ParameterSpec('slip_sequential_threshold', float, 'sequential mode: CUSUM alarm '
+                  'threshold h (higher: fewer false alarms, later flags)', 'dB s', 1e-6, 1e3,
+                  field='slip.sequential_threshold'),
+    ParameterSpec('slip_sequential_drift', float, 'sequential mode: CUSUM drift k, half the '
+                  'band-power rise it is tuned to', 'dB', 1e-3, 1e3,
+                  field='slip.sequential_drift'),
+    ParameterSpec('slip_sequential_single_offset', float, "sequential mode: a finger's input "
+                  "is the larger of its channels' mean excess and its largest channel's excess "
+                  'less this', 'dB', 0.0, 1e3, field='slip.sequential_single_offset'),
     ParameterSpec('input_limit', float, 'largest valid |raw value| [normalised units; the '
                   'protocol clips at +-1024 counts = +-1.0]; beyond it, or NaN/inf, a value is '
                   'invalid: its channel is masked, the others continue', low=1e-3, high=1e6,

@@ -85,7 +85,9 @@ class SlipDetector:
     fs : float
         Sampling rate [Hz].
     params : SlipParams, optional
-        Defaults to the paper's values.
+        Default ``SlipParams()``. In the ``'sequential'`` mode this detector computes that
+        mode's PSD features and flags, the robust mode's (:attr:`SlipParams.features`); the
+        sequential mode's slip events come from :mod:`forte_perception.slip.sequential`.
 
     Notes
     -----
@@ -94,7 +96,7 @@ class SlipDetector:
     """
 
     def __init__(self, fs: float = SAMPLE_RATE, params: SlipParams | None = None) -> None:
-        self.params = params or SlipParams()
+        self.params = (params or SlipParams()).features
         self.params.validate(fs)
         self.fs = float(fs)
         n = int(self.params.window)

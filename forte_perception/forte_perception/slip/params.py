@@ -18,10 +18,11 @@ __all__ = ['MODES', 'RECOMMENDED_MODE', 'NonFiniteInputError',
 
 #: Detector modes (:attr:`SlipParams.mode`).
 MODES = ('paper', 'robust', 'sequential')
-#: The mode that wins on the held-out part of the slip evaluation set (docs/perception.md):
-#: the default of :attr:`SlipParams.mode`, hence of the perception node, the closed loop and
-#: every tool; ``mode='paper'`` selects the paper's algorithm bit for bit.
-RECOMMENDED_MODE = 'robust'
+#: The mode that wins on held-out evidence (issue 38, docs/perception.md: the held-out part
+#: of the slip set, the wirings, a held-out closed-loop seed): the default of
+#: :attr:`SlipParams.mode`, hence of the perception node, the closed loop and every tool;
+#: ``mode='paper'`` selects the paper's algorithm bit for bit.
+RECOMMENDED_MODE = 'sequential'
 
 
 class NonFiniteInputError(ValueError):
@@ -58,7 +59,9 @@ class SlipParams:
     guard_variance : float
         Half-width of the band around ``alpha`` and ``T`` [dB^2], same purpose.
     mode : str
-        ``'robust'`` (default, :data:`RECOMMENDED_MODE`): the issue-14 mode
+        ``'sequential'`` (default, :data:`RECOMMENDED_MODE`): slip events from a CUSUM on the
+        fast band power per finger (:mod:`forte_perception.slip.sequential`); the PSD
+        features it reports are the robust mode's. ``'robust'``: the issue-14 mode
         (:mod:`forte_perception.slip.robust`), which replaces ``eps`` by a quantisation
         floor, adds a per-finger rule and vetoes level shifts. ``'paper'``: the paper's
         algorithm bit for bit; the fields below are then ignored.
@@ -79,6 +82,16 @@ class SlipParams:
         Robust mode: a flag is vetoed when, on every finger, the largest level shift exceeds
         ``veto_ratio`` times the largest peak-to-peak 10-50 Hz amplitude implied by the
         band's PSD maximum [1] (0.33).
+    sequential_drift : float
+        Sequential mode: the CUSUM's drift k, half the rise of the fast band power it is
+        tuned to [dB] (8; :mod:`forte_perception.slip.sequential`).
+    sequential_threshold : float
+        Sequential mode: the CUSUM's alarm threshold h [dB s] (0.05): higher, fewer false
+        alarms and later detections.
+    sequential_single_offset : float
+        Sequential mode: a finger's input is the larger of its channels' mean excess and its
+        largest channel's excess less this [dB] (4; inf: the mean alone;
+        :func:`forte_perception.slip.cusum.pooled_excess`).
     """
 
     window: int = 400
@@ -101,6 +114,9 @@ class SlipParams:
     veto_level: int = 200
     veto_span: int = 400
     veto_ratio: float = 0.33
+    sequential_drift: float = 8.0
+    sequential_threshold: float = 0.05
+    sequential_single_offset: float = 4.0
 
     @property
     def robust(self) -> bool:
@@ -149,8 +165,16 @@ class SlipParams:
             raise ValueError('guards must be >= 0')
         if self.mode not in MODES:
             raise ValueError(f'mode must be one of {MODES}, got {self.mode!r}')
-        if self.robust:
+        if self.mode != 'paper':  # the sequential mode computes the robust mode's features
             self._validate_robust()
+        if self.mode == 'sequential':
+            for name in ('sequential_drift', 'sequential_threshold'):
+                value = getattr(self, name)
+                if not (np.isfinite(value) and value > 0):
+                    raise ValueError(f'{name} must be positive and finite, got {value}')
+            if not self.sequential_single_offset >= 0:  # inf allowed (off), NaN refused
+                raise ValueError('sequential_single_offset must be >= 0 dB, got '
+                                 f'{self.sequential_single_offset}')
 
     def _validate_robust(self) -> None:
         for name in ('quantum', 'floor_factor', 'veto_ratio'):

@@ -1,11 +1,11 @@
 """The robust slip detector mode: what it changes in the paper's detector, and why.
 
-``SlipParams()`` builds this mode: ``mode='robust'`` is
-:data:`~forte_perception.slip.params.RECOMMENDED_MODE`, the default of the node, the closed
-loop and the tools; ``mode='paper'`` is the paper's algorithm bit for bit. Each change below
-answers a way the paper's rule fails on the slip evaluation set; which parameter values were
-tried, on which part of the set, and what each change gains and costs is in
-docs/perception.md, "Robust mode".
+``SlipParams(mode='robust')`` builds this mode (the default until issue 38, which made the
+sequential mode :data:`~forte_perception.slip.params.RECOMMENDED_MODE`; the sequential mode
+reports this mode's PSD features); ``mode='paper'`` is the paper's algorithm bit for bit.
+Each change below answers a way the paper's rule fails on the slip evaluation set; which
+parameter values were tried, on which part of the set, and what each change gains and costs
+is in docs/perception.md, "Robust mode".
 
 1. **A PSD floor from quantisation instead of eps.** The sensor is an 11-bit ADC, q = 2/2048
    in normalised units (:data:`forte_ros.contract.QUANTUM`). Below about 1 LSB of noise the

@@ -50,11 +50,12 @@ holds its statistic; silence sits at the quantisation floor, never an alarm).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from forte_perception.slip.cusum import BandPowerCusum, CusumParams
+from forte_perception.slip.params import SlipParams
 from forte_perception.slip.state import (
     BandPower,
     QuietLevels,
@@ -102,6 +103,15 @@ class SequentialParams:
     high_band: tuple[float, float] = (60.0, 250.0)
     hum_ratio_db: float = -2.0
     servo_hold: float = 0.1
+
+    @classmethod
+    def from_slip(cls, slip: SlipParams) -> SequentialParams:
+        """The defaults with the CUSUM's drift, threshold and single-channel offset of
+        ``slip`` (its ``sequential_*`` fields: the perception node's parameters)."""
+        default = cls()
+        return replace(default, cusum=replace(
+            default.cusum, drift=slip.sequential_drift, threshold=slip.sequential_threshold,
+            single_offset=slip.sequential_single_offset))
 
     def validate(self, fs: float) -> None:
         """Raise ValueError with a reason if a value is unusable at ``fs``."""

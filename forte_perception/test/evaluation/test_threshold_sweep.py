@@ -100,7 +100,7 @@ def row(threshold: float, precision_runs: tuple[int, int], detected: int,
         latency: float, **changes) -> SweepRow:
     from dataclasses import replace
     runs, false = precision_runs
-    params = replace(SlipParams(), threshold=threshold, **changes)
+    params = replace(SlipParams(mode='robust'), threshold=threshold, **changes)
     return SweepRow(params, {'threshold': threshold}, 10, detected, runs, false,
                     np.full(detected, latency), TrialScores(1, 0, 0, 0))
 
@@ -127,6 +127,20 @@ def test_recommendation_rule():
     assert 'no setting reached the floor' in choice.rule
 
 
+def test_in_the_sequential_mode_ties_go_to_the_cusum_threshold_nearest_its_default():
+    from dataclasses import replace
+
+    def sequential(h: float) -> SweepRow:
+        base = row(2.0, (10, 0), 9, 0.05)
+        return replace(base, params=SlipParams(mode='sequential', sequential_threshold=h),
+                       varied={'sequential_threshold': h})
+
+    far, near = sequential(0.2), sequential(0.1)   # default h = 0.05
+    assert recommend([far, near]).row is near
+    assert overlay(near.params)['perception']['ros__parameters'] == {
+        'slip_mode': 'sequential', 'slip_threshold': 2.0, 'slip_sequential_threshold': 0.1}
+
+
 def test_node_parameters_are_the_perception_nodes():
     from forte_perception.ros.perception_node import PARAMETERS
 
@@ -138,7 +152,7 @@ def test_node_parameters_are_the_perception_nodes():
 
 
 def test_overlay_text_and_round_trip():
-    params = SlipParams(threshold=1.5, alpha=0.5)
+    params = SlipParams(mode='robust', threshold=1.5, alpha=0.5)
     document = overlay(params)
     assert document == {'perception': {'ros__parameters': {
         'slip_mode': 'robust', 'slip_threshold': 1.5, 'slip_alpha': 0.5}}}

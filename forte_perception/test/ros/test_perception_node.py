@@ -161,12 +161,12 @@ def harness(request, model_file):
     h.close()
 
 
-@pytest.mark.parametrize('harness, mode', [([], 'robust'),
+@pytest.mark.parametrize('harness, mode', [([], 'sequential'),
                                            ([Parameter('slip_mode', value='paper')], 'paper')],
                          indirect=['harness'], ids=['default', 'paper'])
 def test_online_equals_offline(harness, mode, model_file):
-    """The node is the offline pipeline, in the robust slip mode by default and in the paper
-    mode one parameter away."""
+    """The node is the offline pipeline, in the sequential slip mode by default and in the
+    paper mode one parameter away."""
     x = stream()
     chunks = [x[i:i + CHUNK] for i in range(0, len(x), CHUNK)]
     for chunk in chunks:
@@ -270,7 +270,11 @@ def test_parameters_are_validated(harness, tmp_path):
     assert not bad.successful and 'mode' in bad.reason
     bad = node.set_parameters([Parameter('slip_mode', value=1)])[0]
     assert not bad.successful
-    assert node._pipeline.config.slip.mode == 'robust'
+    assert node._pipeline.config.slip.mode == 'sequential'  # RECOMMENDED_MODE
+    bad = node.set_parameters([Parameter('slip_sequential_threshold', value=0.0)])[0]
+    assert not bad.successful
+    good = node.set_parameters([Parameter('slip_sequential_threshold', value=0.1)])[0]
+    assert good.successful and node._pipeline.config.slip.sequential_threshold == 0.1
     bad = node.set_parameters([Parameter('model_path', value=str(tmp_path / 'none.npz'))])[0]
     assert not bad.successful and 'no such file' in bad.reason
     (tmp_path / 'junk.npz').write_bytes(b'not a model')

@@ -134,7 +134,7 @@ def test_paper_mode_ignores_the_robust_parameters():
 def test_the_default_mode_is_the_recommended_one():
     """One default for one choice: a bare SlipParams (hence a bare PipelineConfig) runs the
     detector the perception node and the closed loop run."""
-    assert SlipParams().mode == RECOMMENDED_MODE == 'robust'
+    assert SlipParams().mode == RECOMMENDED_MODE == 'sequential'  # issue 38
     assert PipelineConfig().slip.mode == RECOMMENDED_MODE
 
 
