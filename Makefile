@@ -46,9 +46,9 @@ faults: setup
 evaluate: setup
 	@$(ENV) && cd $(ROOT) && python -m forte_evaluation.evaluate $(EVAL_ARGS)
 
-## results: evaluate, slip benchmark (robust, paper), then docs/results.md from their JSON (EVAL_ARGS as for evaluate)
+## results: evaluate, slip benchmark (sequential, paper), then docs/results.md from their JSON (EVAL_ARGS as for evaluate)
 results: setup
-	@$(ENV) && cd $(ROOT) && python -m forte_evaluation.evaluate $(EVAL_ARGS) && python -m forte_evaluation.slip_benchmark --mode robust && python -m forte_evaluation.slip_benchmark --mode paper && python tools/results_page.py
+	@$(ENV) && cd $(ROOT) && python -m forte_evaluation.evaluate $(EVAL_ARGS) && python -m forte_evaluation.slip_benchmark --mode sequential && python -m forte_evaluation.slip_benchmark --mode paper && python tools/results_page.py
 
 clean:
 	rm -rf $(ROOT)/build $(ROOT)/install $(ROOT)/.venv $(ROOT)/log
