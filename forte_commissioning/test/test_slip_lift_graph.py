@@ -29,6 +29,7 @@ from launch.launch_description_sources import PythonLaunchDescriptionSource  # n
 
 from forte_bringup.testing import watching  # noqa: E402
 from forte_ros.testing import wait_until  # noqa: E402
+from forte_sim.ros.sim_node import MAX_CATCH_UP  # noqa: E402
 
 LAUNCH = Path(__file__).resolve().parents[2] / 'forte_bringup' / 'launch'  # the sim graph
 SEED = 7
@@ -82,8 +83,11 @@ def test_the_lift_slips_the_apple_on_the_sim_graph():
         # by what the arm travels before the stop command arrives, which the sim bounds: it
         # stops the arm cmd_vel_timeout (0.5 s) after the last command it received, and the
         # stop goes out at most one command period (0.05 s) after the lift's end (seen: 6.22
-        # mm in CI, a stop 0.22 s late)
-        overshoot = 0.001 * (CMD_VEL_TIMEOUT + 1.0 / COMMAND_RATE)
+        # mm in CI, a stop 0.22 s late). A sim node that fell behind makes up to MAX_CATCH_UP
+        # (0.5 s) of simulated time in one timer callback, and the commands that arrived
+        # meanwhile are taken after it, at its end (seen: 6.66 mm in CI with this package's
+        # tests at nice 10 beside another package's)
+        overshoot = 0.001 * (CMD_VEL_TIMEOUT + 1.0 / COMMAND_RATE + MAX_CATCH_UP)
         assert 0.6 * 0.001 * LIFT_S < truth.lift_height < 0.001 * LIFT_S + overshoot
         assert truth.slip_onsets >= 1 and truth.object_slip > 0.001
 
