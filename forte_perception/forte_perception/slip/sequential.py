@@ -50,7 +50,7 @@ holds its statistic; silence sits at the quantisation floor, never an alarm).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -95,8 +95,7 @@ class SequentialParams:
         (0.1; :mod:`forte_perception.slip.servo_gate`).
     """
 
-    cusum: CusumParams = field(default_factory=lambda: CusumParams(
-        drift=8.0, threshold=0.05, clear_time=0.05, single_offset=4.0))
+    cusum: CusumParams = field(default_factory=lambda: _cusum_of(SlipParams()))
     window: float = 0.03
     veto_ratio: float = 0.1
     shift_length: int = 200
@@ -108,10 +107,7 @@ class SequentialParams:
     def from_slip(cls, slip: SlipParams) -> SequentialParams:
         """The defaults with the CUSUM's drift, threshold and single-channel offset of
         ``slip`` (its ``sequential_*`` fields: the perception node's parameters)."""
-        default = cls()
-        return replace(default, cusum=replace(
-            default.cusum, drift=slip.sequential_drift, threshold=slip.sequential_threshold,
-            single_offset=slip.sequential_single_offset))
+        return cls(cusum=_cusum_of(slip))
 
     def validate(self, fs: float) -> None:
         """Raise ValueError with a reason if a value is unusable at ``fs``."""
@@ -127,6 +123,13 @@ class SequentialParams:
             raise ValueError(f'hum_ratio_db must be finite, got {self.hum_ratio_db}')
         if not (math.isfinite(self.servo_hold) and self.servo_hold >= 0):
             raise ValueError(f'servo_hold must be >= 0 s, got {self.servo_hold}')
+
+
+def _cusum_of(slip: SlipParams) -> CusumParams:
+    """The CUSUM of the sequential mode: drift, threshold and single-channel offset from
+    ``slip``'s ``sequential_*`` fields (their one source of defaults), clearing after 0.05 s."""
+    return CusumParams(drift=slip.sequential_drift, threshold=slip.sequential_threshold,
+                       clear_time=0.05, single_offset=slip.sequential_single_offset)
 
 
 class SequentialDetector:
