@@ -34,6 +34,29 @@ restarts ``S``):
    positions exceeds ``veto_ratio`` times the largest ``2 A``. The range sees a sway's
    swing at any phase; the difference of two adjacent span means is near zero where a
    0.5-5 Hz sway turns, and let it alarm there.
+
+   *A finger that rings is exempt* (issue 38). Stick-slip's contact shear is a sawtooth (it
+   builds while stuck and drops at each release, by 1/30 to 2 times the ringing;
+   docs/slip_families.md), so a slip shifts the level too, and the ratio alone took those
+   drops for grip changes. What a level shift cannot do is ring: through the band-pass a
+   step is one lobe (the second-order 10-50 Hz band-pass is damped at 0.9 of critical), a
+   ramp a constant, a 0.5-5 Hz sway at most one sign change in a tenth of a second, while a
+   release rings the finger's bending mode (10-48 Hz, damping 0.07-0.12) for several cycles.
+   So the band-passed signal of each channel over the last ``fs / band[0]`` samples (one
+   period of the band's lowest frequency, 0.1 s) is read at every alarm the level shift
+   would veto: a channel *rings* when its fast excess is at or above the drift and the
+   signal alternates ``ring_crossings`` (3) times between above ``ring_fraction`` (0.5) of
+   its peak magnitude and below minus that (three alternations span one whole period: only
+   a component at or above the band's lower edge makes them within the window), at most as
+   fast as the band's upper edge (median spacing of the alternations at least
+   ``fs / (2 band[1])``, 20 samples: a 62-150 Hz motor hum leaking into the band alternates
+   faster, even where its amplitude modulation leaves cycles under the threshold). Two more
+   conditions keep what is not a finger's mode out: the peak magnitude is at least
+   ``ring_least`` (1 LSB; one code step through the band-pass is a lobe of 0.71 LSB, so
+   code flicker under sub-LSB noise alternates below it), and the channel's fast power in
+   the slip band is above its power in ``high_band`` (the bending mode at 10-48 Hz puts at
+   least 5 dB more into the slip band than the high band's skirt takes; a motor hum does the
+   opposite). A finger with a ringing channel does not vote for the level-shift veto.
 2. *Out-of-band vibration switching on* (motor hum at 62-150 Hz, only 4-6 dB down in the
    slip band's skirt at its lowest frequencies): the same fast estimate in ``high_band``
    (60-250 Hz) gains more power than the slip band. Per finger, the power gained (linear,
@@ -53,6 +76,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.signal import sosfilt, sosfilt_zi
 
 from forte_perception.slip.cusum import BandPowerCusum, CusumParams
 from forte_perception.slip.params import SlipParams
@@ -65,7 +89,7 @@ from forte_perception.slip.state import (
     finger_means,
     quantisation_floor,
 )
-from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
+from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, QUANTUM
 
 __all__ = ['SequentialDetector', 'SequentialParams']
 
@@ -93,6 +117,14 @@ class SequentialParams:
     servo_hold : float
         Servo veto: alarms within this long after a servo command change are vetoed [s]
         (0.1; :mod:`forte_perception.slip.servo_gate`).
+    ring_crossings : int
+        Alternations of a channel's band-passed signal between +-``ring_fraction`` of its
+        peak within one period of the band's lowest frequency that make it ring and exempt
+        its finger from the level-shift veto (3; 0: no exemption).
+    ring_fraction : float
+        The alternations' threshold, a fraction of the window's peak magnitude (0.5).
+    ring_least : float
+        Least peak magnitude of a ringing channel's band-passed signal [LSB] (1.0).
     """
 
     cusum: CusumParams = field(default_factory=lambda: _cusum_of(SlipParams()))
@@ -102,6 +134,9 @@ class SequentialParams:
     high_band: tuple[float, float] = (60.0, 250.0)
     hum_ratio_db: float = -2.0
     servo_hold: float = 0.1
+    ring_crossings: int = 3
+    ring_fraction: float = 0.5
+    ring_least: float = 1.0
 
     @classmethod
     def from_slip(cls, slip: SlipParams) -> SequentialParams:
@@ -123,6 +158,48 @@ class SequentialParams:
             raise ValueError(f'hum_ratio_db must be finite, got {self.hum_ratio_db}')
         if not (math.isfinite(self.servo_hold) and self.servo_hold >= 0):
             raise ValueError(f'servo_hold must be >= 0 s, got {self.servo_hold}')
+        if int(self.ring_crossings) != self.ring_crossings or self.ring_crossings < 0:
+            raise ValueError(f'ring_crossings must be an integer >= 0, got {self.ring_crossings}')
+        if not 0 < self.ring_fraction < 1:
+            raise ValueError(f'ring_fraction must lie in (0, 1), got {self.ring_fraction}')
+        if not (math.isfinite(self.ring_least) and self.ring_least >= 0):
+            raise ValueError(f'ring_least must be >= 0 LSB, got {self.ring_least}')
+
+
+def alternations(sos: np.ndarray, x: np.ndarray, window: int,
+                 fraction: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """How often the band-passed ``x`` (n, 6) alternates between above ``fraction`` of its
+    peak magnitude and below minus that over its last ``window`` samples, and the median
+    spacing of those alternations.
+
+    ``x`` is filtered by the second-order sections ``sos`` from a state at rest at its
+    first sample (a constant passes as zero), so the window should start well after it.
+
+    Returns
+    -------
+    count : ndarray (6,) int
+        Alternations per channel.
+    spacing : ndarray (6,)
+        Median samples between consecutive alternations (half a period of the oscillation
+        that makes them; a cycle below the threshold counts as a longer one); inf with
+        fewer than two.
+    peak : ndarray (6,)
+        Peak magnitude of the band-passed signal in the window [units of ``x``].
+    """
+    rest = sosfilt_zi(sos)[:, :, None] * x[0][None, None, :]
+    y = sosfilt(sos, x, axis=0, zi=rest)[0][-window:]
+    peak = np.abs(y).max(axis=0)
+    level = fraction * peak
+    side = np.where(y > level, 1, 0) - np.where(y < -level, 1, 0)  # (window, 6)
+    count = np.zeros(y.shape[1], np.int64)
+    spacing = np.full(y.shape[1], np.inf)
+    for c in range(y.shape[1]):
+        where = np.flatnonzero(side[:, c])
+        switch = where[1:][side[where[1:], c] != side[where[:-1], c]]
+        count[c] = switch.size
+        if switch.size >= 2:
+            spacing[c] = float(np.median(np.diff(switch)))
+    return count, spacing, peak
 
 
 def _cusum_of(slip: SlipParams) -> CusumParams:
@@ -165,6 +242,11 @@ class SequentialDetector:
             self.state.params.floor_factor, self.params.high_band, fs))
         self._high_levels = QuietLevels(self.state.levels.block, self.state.levels.beta)
         self._cusum = BandPowerCusum(dt, self.params.cusum)
+        self._ring_window = int(round(fs / band[0]))  # one period of the band's lowest
+        self._ring_spacing = fs / (2.0 * band[1])  # half a period of the upper edge
+        if self._ring_window > 2 * int(self.params.shift_length):
+            raise ValueError(f'one period of {band[0]} Hz ({self._ring_window} samples) must '
+                             f'fit the level-shift spans (2 x {self.params.shift_length})')
         self.reset()
 
     def reset(self) -> None:
@@ -266,6 +348,21 @@ class SequentialDetector:
         excess = finger_means((before - self._cusum.level)[None, :])[0]
         return bool((excess >= self.params.cusum.drift).any())  # NaN: no say
 
+    def _rings(self, span: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+        """Channels (6,) bool that ring in the slip band (module docstring): fast power
+        ``low`` (6,) [dB] at least the drift over the CUSUM's level and above the high band's
+        ``high`` (6,) [dB], and the band-passed ``span`` (the last samples (n, 6), filtered
+        from their first value at rest) alternating ``ring_crossings`` times within the ring
+        window, no faster than the band's upper edge, with a peak of ``ring_least``."""
+        candidates = ((low - self._cusum.level) >= self.params.cusum.drift) & (low > high)
+        if self.params.ring_crossings == 0 or not candidates.any():  # NaN: not a candidate
+            return np.zeros(N_CHANNELS, bool)
+        count, spacing, peak = alternations(self._low.sos, span, self._ring_window,
+                                            self.params.ring_fraction)
+        return (candidates & (count >= self.params.ring_crossings)
+                & (spacing >= self._ring_spacing)
+                & (peak >= self.params.ring_least * QUANTUM))
+
     def _veto(self, ext: np.ndarray, origin: int, samples: tuple[int, int], low: np.ndarray,
               high: np.ndarray, levels: tuple[np.ndarray, np.ndarray]) -> bool:
         """The level-shift and hum vetoes of an alarm whose fast powers are ``low`` and
@@ -286,7 +383,9 @@ class SequentialDetector:
             amplitude = np.where(np.isnan(amplitude), -np.inf, amplitude)  # unusable: no say
             ratio = self.params.veto_ratio
             if all(shift[c].max() > ratio * amplitude[c].max() for c in fingers):
-                return True
+                ringing = self._rings(span, low, high)
+                if not any(ringing[c].any() for c in fingers):
+                    return True
         gain_low = 10.0 ** (low / 10.0) - 10.0 ** (levels[0] / 10.0)
         gain_high = 10.0 ** (high / 10.0) - 10.0 ** (levels[1] / 10.0)
         hum = 10.0 ** (self.params.hum_ratio_db / 10.0)

@@ -198,6 +198,11 @@ class BandPower:
         self._floor = float(floor)
         self.reset()
 
+    @property
+    def sos(self) -> np.ndarray:
+        """The band-pass's second-order sections (``scipy.signal.butter`` ``output='sos'``)."""
+        return self._sos
+
     def reset(self) -> None:
         """Forget the filter state and the squares kept."""
         self._zi: np.ndarray | None = None

@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.signal import bilinear, butter, lfilter, sosfreqz
 
-from forte_perception.slip.sequential import SequentialDetector, SequentialParams
+from forte_perception.slip.sequential import SequentialDetector, SequentialParams, alternations
 from forte_perception.testing import tightening
 from forte_ros.contract import QUANTUM
 
@@ -159,3 +160,115 @@ def test_bad_parameters_are_refused():
         SequentialDetector(FS, 4, params=SequentialParams(shift_length=0))
     with pytest.raises(ValueError, match='servo_hold'):
         SequentialDetector(FS, 4, params=SequentialParams(servo_hold=-0.1))
+    with pytest.raises(ValueError, match='ring_crossings'):
+        SequentialDetector(FS, 4, params=SequentialParams(ring_crossings=-1))
+    with pytest.raises(ValueError, match='ring_fraction'):
+        SequentialDetector(FS, 4, params=SequentialParams(ring_fraction=1.0))
+    with pytest.raises(ValueError, match='ring_least'):
+        SequentialDetector(FS, 4, params=SequentialParams(ring_least=-1.0))
+    with pytest.raises(ValueError, match='level-shift spans'):
+        SequentialDetector(FS, 4, params=SequentialParams(shift_length=50))
+
+
+# -- a finger that rings is exempt from the level-shift veto (issue 38) --------------------
+
+BAND_PASS = butter(1, (10.0, 50.0), btype='bandpass', fs=FS, output='sos')
+PERIOD = 200  # one period of the band's lower edge, 10 Hz, at 2 kHz
+
+
+def with_rest(signal: np.ndarray) -> np.ndarray:
+    """``signal`` (n,) on all six channels after 0.1 s at its first value: the filter's
+    start is out of the window."""
+    x = np.concatenate([np.full(PERIOD, signal[0]), signal])
+    return np.repeat(x[:, None], 6, axis=1)
+
+
+@pytest.mark.parametrize('frequency, least, most', [(20.0, 3, 5), (40.0, 7, 9), (5.0, 0, 1),
+                                                    (2.0, 0, 1)])
+def test_alternations_count_half_periods_in_one_period_of_the_lower_edge(frequency, least,
+                                                                         most):
+    t = np.arange(2 * PERIOD) / FS  # steady: the sine has run for a period before the window
+    sine_wave = np.repeat(np.sin(2 * np.pi * frequency * t + 0.3)[:, None], 6, axis=1)
+    count, spacing, peak = alternations(BAND_PASS, sine_wave, PERIOD, 0.5)
+    assert np.all((count >= least) & (count <= most)), count
+    if least >= 2:  # half a period apart, within a sample
+        np.testing.assert_allclose(spacing, FS / (2 * frequency), atol=1.0)
+        gain = np.abs(sosfreqz(BAND_PASS, [frequency], fs=FS)[1][0])  # a steady sine's peak
+        np.testing.assert_allclose(peak, gain, rtol=0.02)
+
+
+@pytest.mark.parametrize('frequency', [62.0, 75.0, 150.0])
+def test_a_modulated_hum_alternates_faster_than_the_band_upper_edge(frequency):
+    """Motor hum (20 % amplitude modulation at 1.7 Hz, 1 LSB of noise beside 28 LSB): cycles
+    that stay under the threshold lengthen some spacings, the median stays under half a
+    period of 50 Hz (20 samples)."""
+    rng = np.random.default_rng(3)
+    t = np.arange(2 * PERIOD) / FS
+    hum = 28.0 * (1 + 0.2 * np.sin(2 * np.pi * 1.7 * t)) * np.sin(2 * np.pi * frequency * t)
+    x = hum[:, None] + rng.normal(0.0, 1.0, (t.size, 6))
+    _, spacing, _ = alternations(BAND_PASS, x, PERIOD, 0.5)
+    assert np.all(spacing < FS / (2 * 50.0)), spacing
+
+
+@pytest.mark.parametrize('rise', [1, 40, 400])
+def test_a_step_or_a_ramp_never_alternates(rise):
+    """A level change of any speed through the band-pass is one lobe (a step) or a constant
+    (a ramp): no alternation, whatever comes after it in the window."""
+    k = np.arange(PERIOD)
+    for start in (0, 50, 150):
+        step = np.clip((k - start) / rise, 0.0, 1.0) * 300.0
+        count, spacing, _ = alternations(BAND_PASS, with_rest(step), PERIOD, 0.5)
+        assert not count.any() and np.isinf(spacing).all()
+
+
+def resonator(shear: np.ndarray, frequency: float, damping: float) -> np.ndarray:
+    """The finger's bending mode driven by the contact shear ``shear`` (n,): response minus
+    input, the vibration a release leaves (bilinear transform of
+    w^2 / (s^2 + 2 z w s + w^2))."""
+    w = 2 * np.pi * frequency
+    b, a = bilinear([w * w], [1.0, 2 * damping * w, w * w], FS)
+    return lfilter(b, a, shear) - shear
+
+
+def sawtooth_slip(x: np.ndarray, channels: slice, ringing: float, share: float,
+                  rate: float = 20.0, duration: float = 0.4, frequency: float = 25.0) -> None:
+    """Add stick-slip under one finger from ONSET: the contact shear builds at ``rate``
+    drops per second and drops (over 2 ms) at each of ``rate`` releases per second, ringing
+    the finger's mode (``frequency``, damping 0.1) with a peak of ``ringing`` LSB; the
+    static drop is ``share`` x ``ringing`` LSB."""
+    k = np.arange(x.shape[0])
+    releases = ONSET + np.arange(0, duration, 1.0 / rate) * FS
+    build = rate / FS * np.clip(k - ONSET, 0.0, releases[-1] - ONSET)
+    shear = build - sum(np.clip((k - r) / 4.0, 0.0, 1.0) for r in releases)  # in drops
+    vibration = resonator(shear, frequency, 0.1)
+    vibration *= ringing / np.abs(vibration).max()
+    x[:, channels] += (vibration + share * ringing * shear)[:, None]
+
+
+@pytest.mark.parametrize('share', [1.0, 2.0])
+def test_a_sawtooth_slip_is_heard_through_the_level_shift_veto(share):
+    """Stick-slip whose static drops are once or twice its 8 LSB ringing, the other finger
+    feeling half of it: without the exemption the level-shift veto takes the burst's alarms
+    for 0.15 s; with it the slip is heard within 0.1 s of the first release, once the
+    ringing has shown one and a half periods."""
+    x = scene()
+    sawtooth_slip(x, slice(3, 6), 8.0, share)
+    sawtooth_slip(x, slice(0, 3), 4.0, share)
+    x = np.round(x) * QUANTUM
+    off = SequentialDetector(FS, 4, params=SequentialParams(ring_crossings=0))
+    ends, slip, _ = off.update(x)
+    assert off.vetoed >= 10 and not (slip & (ends < ONSET + 0.15 * FS)).any()
+    ends, slip, _ = SequentialDetector(FS, 4).update(x)
+    assert slip.any() and ONSET <= ends[slip][0] <= ONSET + 0.1 * FS
+
+
+@pytest.mark.parametrize('frequency', [1.0, 3.0, 5.0])
+def test_a_sway_is_still_vetoed(frequency):
+    """The held object swaying at 0.5-5 Hz with 100 LSB (0.3 s raised-cosine edges): its
+    skirt leaks into the band at every phase, it never rings, no alarm."""
+    x = scene()
+    k = np.arange(x.shape[0])
+    edge = 0.5 - 0.5 * np.cos(np.pi * np.clip((k - ONSET) / 600.0, 0.0, 1.0))
+    x += (edge * 100.0 * np.sin(2 * np.pi * frequency * k / FS))[:, None]
+    _, slip, _, _ = detect(x)
+    assert not slip.any()
