@@ -166,14 +166,16 @@ class SequentialParams:
             raise ValueError(f'ring_least must be >= 0 LSB, got {self.ring_least}')
 
 
-def alternations(sos: np.ndarray, x: np.ndarray, window: int,
-                 fraction: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def alternations(sos: np.ndarray, x: np.ndarray, window: int, fraction: float,
+                 unit_rest: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """How often the band-passed ``x`` (n, 6) alternates between above ``fraction`` of its
     peak magnitude and below minus that over its last ``window`` samples, and the median
     spacing of those alternations.
 
     ``x`` is filtered by the second-order sections ``sos`` from a state at rest at its
-    first sample (a constant passes as zero), so the window should start well after it.
+    first sample (a constant passes as zero), so the window should start well after it;
+    ``unit_rest``: ``scipy.signal.sosfilt_zi(sos)``, when the caller keeps it.
 
     Returns
     -------
@@ -186,19 +188,21 @@ def alternations(sos: np.ndarray, x: np.ndarray, window: int,
     peak : ndarray (6,)
         Peak magnitude of the band-passed signal in the window [units of ``x``].
     """
-    rest = sosfilt_zi(sos)[:, :, None] * x[0][None, None, :]
-    y = sosfilt(sos, x, axis=0, zi=rest)[0][-window:]
-    peak = np.abs(y).max(axis=0)
-    level = fraction * peak
-    side = np.where(y > level, 1, 0) - np.where(y < -level, 1, 0)  # (window, 6)
-    count = np.zeros(y.shape[1], np.int64)
-    spacing = np.full(y.shape[1], np.inf)
-    for c in range(y.shape[1]):
-        where = np.flatnonzero(side[:, c])
-        switch = where[1:][side[where[1:], c] != side[where[:-1], c]]
-        count[c] = switch.size
-        if switch.size >= 2:
-            spacing[c] = float(np.median(np.diff(switch)))
+    unit_rest = sosfilt_zi(sos) if unit_rest is None else unit_rest
+    rest = unit_rest[:, None, :] * x[0][None, :, None]  # (sections, 6, 2)
+    y = sosfilt(sos, np.ascontiguousarray(x.T), axis=-1, zi=rest)[0][:, -window:]  # (6, w)
+    peak = np.abs(y).max(axis=1)
+    level = fraction * peak[:, None]
+    side = (y > level).astype(np.int8) - (y < -level).astype(np.int8)
+    latest = np.where(side != 0, np.arange(y.shape[1])[None, :], -1)  # last side taken
+    np.maximum.accumulate(latest, axis=1, out=latest)
+    held = np.take_along_axis(side, np.maximum(latest, 0), axis=1) * (latest >= 0)
+    switch = (held[:, 1:] != held[:, :-1]) & (held[:, :-1] != 0)
+    count = switch.sum(axis=1).astype(np.int64)
+    spacing = np.full(y.shape[0], np.inf)
+    for c in np.flatnonzero(count >= 2):
+        gaps = np.sort(np.diff(np.flatnonzero(switch[c])))  # the median, without its overhead
+        spacing[c] = 0.5 * float(gaps[(gaps.size - 1) // 2] + gaps[gaps.size // 2])
     return count, spacing, peak
 
 
@@ -244,6 +248,7 @@ class SequentialDetector:
         self._cusum = BandPowerCusum(dt, self.params.cusum)
         self._ring_window = int(round(fs / band[0]))  # one period of the band's lowest
         self._ring_spacing = fs / (2.0 * band[1])  # half a period of the upper edge
+        self._ring_rest = sosfilt_zi(self._low.sos)
         if self._ring_window > 2 * int(self.params.shift_length):
             raise ValueError(f'one period of {band[0]} Hz ({self._ring_window} samples) must '
                              f'fit the level-shift spans (2 x {self.params.shift_length})')
@@ -357,8 +362,10 @@ class SequentialDetector:
         candidates = ((low - self._cusum.level) >= self.params.cusum.drift) & (low > high)
         if self.params.ring_crossings == 0 or not candidates.any():  # NaN: not a candidate
             return np.zeros(N_CHANNELS, bool)
-        count, spacing, peak = alternations(self._low.sos, span, self._ring_window,
-                                            self.params.ring_fraction)
+        start = span.shape[0] - self._ring_window - self._ring_window // 2  # 50 ms settling
+        count, spacing, peak = alternations(self._low.sos, span[max(start, 0):],
+                                            self._ring_window, self.params.ring_fraction,
+                                            self._ring_rest)
         return (candidates & (count >= self.params.ring_crossings)
                 & (spacing >= self._ring_spacing)
                 & (peak >= self.params.ring_least * QUANTUM))
