@@ -103,6 +103,9 @@ class TrialResult:
         Times of the perception updates (chunks) whose slip flag was set [s since the goal].
     slip_reaction_times : list of float
         Times at which the controller commanded a slip tightening [s since the goal].
+    gross_slip_times : list of float
+        Times at which the controller tightened on the lift monitor's gross-slip evidence
+        (the quasi-static cue) [s since the goal].
     slip_true, slip_predicted : bool
         Any true onset / any slip flag during the lift (from the start of LIFTING to the end
         of the trial), for trial-wise slip detection scores.
@@ -138,6 +141,7 @@ class TrialResult:
     slip_onset_types: list[int] = field(default_factory=list)
     slip_flag_times: list[float] = field(default_factory=list)
     slip_reaction_times: list[float] = field(default_factory=list)
+    gross_slip_times: list[float] = field(default_factory=list)
     slip_true: bool = False
     slip_predicted: bool = False
     lift_start_time: float = math.nan
@@ -212,6 +216,7 @@ class _TrialLog:
     onset_types: list[int] = field(default_factory=list)
     flag_times: list[float] = field(default_factory=list)
     reaction_times: list[float] = field(default_factory=list)
+    gross_times: list[float] = field(default_factory=list)
     lift_start: float = math.nan
     max_true_force: float = 0.0
     max_estimated: float = -math.inf
@@ -355,6 +360,8 @@ class _ClosedLoop:
                 motion=abs(self.commands.servo - previous) / speed if speed > 0 else None)
         if outputs.slip_reacted:
             self.log.reaction_times.append(t)
+        if outputs.gross_slip_events > len(self.log.gross_times):  # one more this grasp
+            self.log.gross_times.append(t)
         if outputs.state == GraspState.LIFTING and math.isnan(self.log.lift_start):
             self.log.lift_start = t
         if outputs.state not in ACTIVE_STATES:
@@ -384,7 +391,7 @@ def _trial_result(loop: _ClosedLoop, outputs, truth, identity: dict,
         gross_slip_events=int(outputs.gross_slip_events),
         lift_height=float(outputs.lift_height), slip_onset_times=log.onset_times,
         slip_onset_types=log.onset_types, slip_flag_times=log.flag_times,
-        slip_reaction_times=log.reaction_times,
+        slip_reaction_times=log.reaction_times, gross_slip_times=log.gross_times,
         slip_true=bool(log.during_lift(log.onset_times)),
         slip_predicted=bool(log.during_lift(log.flag_times)),
         lift_start_time=log.lift_start, object_state_at_outcome=log.state_at_outcome,

@@ -42,6 +42,9 @@ from forte_evaluation.metrics import (
     TrialRecord,
     confusion_json,
     confusion_table,
+    cue_counts,
+    cue_table,
+    first_cue,
     force_table,
     latency_table,
     mode_comparison_table,
@@ -119,12 +122,20 @@ def record_from_result(result: object, task: Task) -> TrialRecord:
     present), ``max_true_force``, ``duration`` and ``final_height`` fields. Latencies: each
     onset (in time order) against the flags by
     :func:`~forte_perception.evaluation.slip_metrics.match_onsets`, within
-    ``CLOSED_LOOP_MAX_LATENCY`` and before the next onset.
+    ``CLOSED_LOOP_MAX_LATENCY`` and before the next onset; the gross-slip tightenings
+    (``gross_slip_times``) are matched the same way, and each onset gets the cue that found
+    it first (:func:`~forte_evaluation.metrics.first_cue`, with its ``slip_onset_types``).
     """
-    onsets = sorted(float(t) for t in _get(result, 'slip_onset_times', []) or [])
+    times = [float(t) for t in _get(result, 'slip_onset_times', []) or []]
+    kinds = list(_get(result, 'slip_onset_types', []) or []) or [0] * len(times)
+    onsets, kinds = (list(v) for v in zip(*sorted(zip(times, kinds)))) if times else ([], [])
     flags = list(_get(result, 'slip_flag_times', []) or [])
     latency = match_onsets(onsets, flags, CLOSED_LOOP_MAX_LATENCY, before_next_onset=True)
     latencies = [float(v) for v in latency[~np.isnan(latency)]]
+    by_lift_monitor = match_onsets(onsets, list(_get(result, 'gross_slip_times', []) or []),
+                                   CLOSED_LOOP_MAX_LATENCY, before_next_onset=True)
+    cues = [(int(k), first_cue(float(v), float(g)))
+            for k, v, g in zip(kinds, latency, by_lift_monitor)]
     outcome = _get(result, 'outcome', '')
     state = _get(result, 'object_state', '')
     at_outcome = _get(result, 'object_state_at_outcome', '') or ''
@@ -135,7 +146,7 @@ def record_from_result(result: object, task: Task) -> TrialRecord:
         object_state=str(getattr(state, 'name', state)),
         slip_true=bool(_get(result, 'slip_true', bool(onsets))),
         slip_predicted=bool(_get(result, 'slip_predicted', bool(flags))),
-        latencies=latencies, missed_onsets=len(onsets) - len(latencies),
+        latencies=latencies, missed_onsets=len(onsets) - len(latencies), onset_cues=cues,
         max_true_force=float(_get(result, 'max_true_force', math.nan)),
         duration=float(_get(result, 'duration', math.nan)),
         object_state_at_outcome=str(getattr(at_outcome, 'name', at_outcome)),
@@ -296,6 +307,7 @@ def _mode_results(records: Sequence[TrialRecord], mode: str) -> dict:
                           sum(r.missed_onsets for r in forte))
     return {'grasp': summary_json(records), 'truth': confusion_json(records),
             'slip_latency': stats,
+            'slip_cues': cue_counts(r for r in records if r.controller == 'FORTE'),
             'trials': [dict(r.to_dict(), slip_mode=mode) for r in records]}
 
 
@@ -311,6 +323,9 @@ def _mode_tables(records: Sequence[TrialRecord], mode: str, stats: dict[str, flo
           "paper's Table)\n" + table, flush=True)
     print('\nSlip detection latency, true onset to first flag (FORTE trials)\n' + latency,
           flush=True)
+    cues = cue_table(records)
+    print('\nWhich cue found each true onset first within '
+          f'{CLOSED_LOOP_MAX_LATENCY:g} s (FORTE trials)\n' + cues, flush=True)
     print('\nController outcome against the ground-truth object state at the end of the '
           'trial (! = contradicts the truth on whether the object was carried)\n' + truth,
           flush=True)
@@ -318,6 +333,9 @@ def _mode_tables(records: Sequence[TrialRecord], mode: str, stats: dict[str, flo
           flush=True)
     return [f'## Grasp success and slip detection (slip mode `{mode}`)', '', table, '',
             f'## Slip detection latency, onset to flag (slip mode `{mode}`)', '', latency, '',
+            f'## Which cue found each onset first (slip mode `{mode}`)', '',
+            'Within the latency horizon: the slip flag (vibration) or the tightening on the '
+            "lift monitor's gross-slip evidence (quasi-static).", '', cues, '',
             f'## Controller outcome against the ground truth (slip mode `{mode}`)', '',
             'Ground truth at the end of the trial (1 s after the outcome); `!` marks '
             'a contradiction on whether the object was carried (LIFTED vs RESTING '

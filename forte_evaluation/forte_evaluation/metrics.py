@@ -26,6 +26,7 @@ sliding 28 mm down the fingers is carried, though not a success, which needs 5 m
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 
@@ -92,6 +93,9 @@ class TrialRecord:
         after it [s].
     missed_onsets : int
         True slip onsets with no flag within the latency horizon [count].
+    onset_cues : list of (int, str)
+        Per true slip onset: its ``SimGroundTruth`` ``SLIP_*`` type and the cue that found it
+        first within the latency horizon (:data:`CUES`).
     max_true_force : float
         Largest true per-finger normal force during the trial [N] (NaN if unknown).
     duration : float
@@ -109,6 +113,7 @@ class TrialRecord:
     slip_predicted: bool = False
     latencies: list[float] = field(default_factory=list)
     missed_onsets: int = 0
+    onset_cues: list[tuple[int, str]] = field(default_factory=list)
     max_true_force: float = float('nan')
     duration: float = float('nan')
     object_state_at_outcome: str = ''
@@ -256,6 +261,45 @@ def latency_table(stats: dict[str, float]) -> str:
            f'< {1000 * PAPER_SLIP_LATENCY_BOUND:.0f} (typical)']
     return _table(['detected onsets', 'missed', 'p50 [ms]', 'p90 [ms]', 'max [ms]',
                    '% < 100 ms', 'paper [ms]'], [row])
+
+
+#: Which cue found a closed-loop slip onset first: the slip detector's flag (vibration), the
+#: controller's tightening on the lift monitor's gross-slip evidence (quasi-static: unequal
+#: finger levels or a decaying deformation while the arm lifts), or neither in the horizon.
+CUES = ('vibration', 'lift monitor', 'neither')
+#: SimGroundTruth SLIP_* types by value.
+ONSET_TYPES = {1: 'incipient', 2: 'gross', 3: 'stick-slip', 4: 'rotational'}
+
+
+def first_cue(vibration_latency: float, lift_monitor_latency: float) -> str:
+    """The cue (:data:`CUES`) that found an onset first, from each cue's latency [s] (NaN:
+    not within the horizon); a tie goes to the vibration cue."""
+    if math.isnan(lift_monitor_latency):
+        return CUES[2] if math.isnan(vibration_latency) else CUES[0]
+    if math.isnan(vibration_latency) or lift_monitor_latency < vibration_latency:
+        return CUES[1]
+    return CUES[0]
+
+
+def cue_counts(records: Iterable[TrialRecord]) -> dict[str, dict[str, int]]:
+    """Onsets per onset type (and ``all``): how many each cue found first."""
+    counts: dict[str, dict[str, int]] = {}
+    for record in records:
+        for kind, cue in record.onset_cues:
+            for row in (ONSET_TYPES.get(kind, str(kind)), 'all'):
+                counts.setdefault(row, dict.fromkeys(CUES, 0))[cue] += 1
+    return counts
+
+
+def cue_table(records: Sequence[TrialRecord]) -> str:
+    """Which cue found each true onset first (FORTE trials), per onset type."""
+    counts = cue_counts(r for r in records if r.controller == 'FORTE')
+    order = [*ONSET_TYPES.values(), 'all']
+    rows = [[row, str(sum(c.values())), *(str(c[cue]) for cue in CUES)]
+            for row in sorted(counts, key=lambda k: order.index(k) if k in order else -1)
+            for c in [counts[row]]]
+    return _table(['onset type', 'onsets', 'vibration first', 'lift monitor first',
+                   'found by neither'], rows)
 
 
 def summary_json(records: Sequence[TrialRecord]) -> dict:

@@ -55,6 +55,9 @@ def test_forte_lifts_a_slippery_object_that_no_slip_drops(model, slippery_forte)
         assert forte.slip_events + forte.gross_slip_events >= 1 and forte.slip_true
         assert forte.tightening == pytest.approx(
             (forte.slip_events + forte.gross_slip_events) * PAPER_SLIP_INCREMENT)
+        # each gross-slip tightening is timed, after the lift began (the cue report's input)
+        assert len(forte.gross_slip_times) == forte.gross_slip_events
+        assert all(forte.lift_start_time <= t <= forte.duration for t in forte.gross_slip_times)
     assert any(forte.slip_predicted and forte.slip_events for forte in lifted)
     for seed, forte in zip(SLIPPERY_SEEDS, slippery_forte):
         no_slip = run_trial(SLIPPERY, 'NO_SLIP', seed=seed, model=model)

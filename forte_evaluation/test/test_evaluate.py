@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -16,7 +17,13 @@ from forte_evaluation.evaluate import (
     record_from_result,
     run_benchmark,
 )
-from forte_evaluation.metrics import TrialRecord, mode_comparison_table, summarize
+from forte_evaluation.metrics import (
+    TrialRecord,
+    cue_counts,
+    cue_table,
+    mode_comparison_table,
+    summarize,
+)
 
 
 def test_benchmark_objects_cover_the_paper_categories():
@@ -120,6 +127,26 @@ def test_record_latencies_follow_the_closed_loop_rule():
     assert latencies([1.0], [2.0]) == ([1.0], 0)            # exactly 1 s later: caught
     assert latencies([1.0], [2.0005]) == ([], 1)            # one sample (0.5 ms) later: missed
     assert latencies([], [1.0]) == ([], 0)
+
+
+def test_each_onset_gets_the_cue_that_found_it_first():
+    """Flags and gross-slip tightenings matched to the onsets by the same rule; the earlier
+    cue wins, a tie goes to the vibration cue, neither within 1 s counts as neither; the
+    onset types follow their onsets into time order."""
+    result = {'slip_onset_times': [5.0, 1.0, 3.0, 7.0], 'slip_onset_types': [3, 2, 2, 1],
+              'slip_flag_times': [1.30, 3.10, 5.05], 'gross_slip_times': [1.20, 3.10, 6.5]}
+    record = record_from_result(result, Task('pocky_box', 'slippery', 'FORTE', 0, 0))
+    assert record.onset_cues == [(2, 'lift monitor'), (2, 'vibration'), (3, 'vibration'),
+                                 (1, 'neither')]
+    counts = cue_counts([record])
+    assert counts['gross'] == {'vibration': 1, 'lift monitor': 1, 'neither': 0}
+    assert counts['all'] == {'vibration': 2, 'lift monitor': 1, 'neither': 1}
+    table = cue_table([record, replace(record, controller='NO_SLIP')])  # FORTE only
+    rows = {cells[0]: cells[1:] for line in table.splitlines()[2:]
+            for cells in [[c.strip() for c in line.strip('|').split('|')]]}
+    assert rows['all'] == ['4', '2', '1', '1'] and rows['stick-slip'] == ['1', '1', '0', '0']
+    assert list(rows) == ['incipient', 'gross', 'stick-slip', 'all']
+    assert record_from_result({}, Task('pocky_box', 'slippery', 'FORTE', 0, 0)).onset_cues == []
 
 
 def test_force_cross_validation_on_the_calibration_rig():
