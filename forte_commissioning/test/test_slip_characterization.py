@@ -90,10 +90,11 @@ def test_characterisation_reports_per_threshold(characterisations, tmp_path):
 
 
 def test_recommended_overlay_no_worse_on_held_out(characterisations, tmp_path):
+    """The lab's procedure with forte_tune_slip's defaults: sweep the node's default mode on
+    the characterisation lifts, write the overlay, check it on held-out scenes against the
+    default."""
     recordings = [r.recording() for r in characterisations]
-    settings, _ = settings_for(['robust'], DEFAULT_THRESHOLDS,
-                               {'single_threshold': (3.0, 4.5), 'veto_ratio': (0.33, 0.5)},
-                               2000.0)
+    settings, _ = settings_for([SlipParams().mode], DEFAULT_THRESHOLDS, None, 2000.0)
     choice = recommend(sweep(recordings, settings))
     path = tmp_path / 'slip_overlay.yaml'
     write_overlay(path, choice.row.params, 'test')

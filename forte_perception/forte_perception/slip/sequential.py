@@ -54,9 +54,9 @@ restarts ``S``):
    conditions keep what is not a finger's mode out: the peak magnitude is at least
    ``ring_least`` (1 LSB; one code step through the band-pass is a lobe of 0.71 LSB, so
    code flicker under sub-LSB noise alternates below it), and the channel's fast power in
-   the slip band is above its power in ``high_band`` (the bending mode at 10-48 Hz puts at
-   least 5 dB more into the slip band than the high band's skirt takes; a motor hum does the
-   opposite). A finger with a ringing channel does not vote for the level-shift veto.
+   the slip band is above its power in ``high_band`` (a ringing mode at 38 Hz already puts
+   5.2 dB less into the high band than into the slip band, lower modes less still; a motor
+   hum does the opposite). A finger with a ringing channel does not vote for the level-shift veto.
 2. *Out-of-band vibration switching on* (motor hum at 62-150 Hz, only 4-6 dB down in the
    slip band's skirt at its lowest frequencies): the same fast estimate in ``high_band``
    (60-250 Hz) gains more power than the slip band. Per finger, the power gained (linear,
@@ -91,7 +91,7 @@ from forte_perception.slip.state import (
 )
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, QUANTUM
 
-__all__ = ['SequentialDetector', 'SequentialParams']
+__all__ = ['SequentialDetector', 'SequentialParams', 'alternations']
 
 
 @dataclass(frozen=True)
