@@ -128,6 +128,8 @@ def record_from_result(result: object, task: Task) -> TrialRecord:
     """
     times = [float(t) for t in _get(result, 'slip_onset_times', []) or []]
     kinds = list(_get(result, 'slip_onset_types', []) or []) or [0] * len(times)
+    if len(kinds) != len(times):
+        raise ValueError(f'{len(times)} slip onset times but {len(kinds)} onset types')
     onsets, kinds = (list(v) for v in zip(*sorted(zip(times, kinds)))) if times else ([], [])
     flags = list(_get(result, 'slip_flag_times', []) or [])
     latency = match_onsets(onsets, flags, CLOSED_LOOP_MAX_LATENCY, before_next_onset=True)

@@ -147,6 +147,9 @@ def test_each_onset_gets_the_cue_that_found_it_first():
     assert rows['all'] == ['4', '2', '1', '1'] and rows['stick-slip'] == ['1', '1', '0', '0']
     assert list(rows) == ['incipient', 'gross', 'stick-slip', 'all']
     assert record_from_result({}, Task('pocky_box', 'slippery', 'FORTE', 0, 0)).onset_cues == []
+    with pytest.raises(ValueError, match='2 slip onset times but 1 onset types'):
+        record_from_result({'slip_onset_times': [1.0, 2.0], 'slip_onset_types': [3]},
+                           Task('pocky_box', 'slippery', 'FORTE', 0, 0))
 
 
 def test_force_cross_validation_on_the_calibration_rig():
