@@ -309,7 +309,7 @@ def _mode_results(records: Sequence[TrialRecord], mode: str) -> dict:
                           sum(r.missed_onsets for r in forte))
     return {'grasp': summary_json(records), 'truth': confusion_json(records),
             'slip_latency': stats,
-            'slip_cues': cue_counts(r for r in records if r.controller == 'FORTE'),
+            'slip_cues': cue_counts(forte),
             'trials': [dict(r.to_dict(), slip_mode=mode) for r in records]}
 
 

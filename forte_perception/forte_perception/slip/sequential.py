@@ -362,7 +362,7 @@ class SequentialDetector:
         candidates = ((low - self._cusum.level) >= self.params.cusum.drift) & (low > high)
         if self.params.ring_crossings == 0 or not candidates.any():  # NaN: not a candidate
             return np.zeros(N_CHANNELS, bool)
-        start = span.shape[0] - self._ring_window - self._ring_window // 2  # 50 ms settling
+        start = span.shape[0] - self._ring_window - self._ring_window // 2  # half to settle
         count, spacing, peak = alternations(self._low.sos, span[max(start, 0):],
                                             self._ring_window, self.params.ring_fraction,
                                             self._ring_rest)
@@ -390,8 +390,7 @@ class SequentialDetector:
             amplitude = np.where(np.isnan(amplitude), -np.inf, amplitude)  # unusable: no say
             ratio = self.params.veto_ratio
             if all(shift[c].max() > ratio * amplitude[c].max() for c in fingers):
-                ringing = self._rings(span, low, high)
-                if not any(ringing[c].any() for c in fingers):
+                if not self._rings(span, low, high).any():  # a ringing finger does not vote
                     return True
         gain_low = 10.0 ** (low / 10.0) - 10.0 ** (levels[0] / 10.0)
         gain_high = 10.0 ** (high / 10.0) - 10.0 ** (levels[1] / 10.0)
