@@ -40,6 +40,8 @@ from forte_ros.testing import wait_until
 
 #: Topics :class:`Watcher` counts (``tared``: tactile states that are tared and valid).
 COUNTED = ('tactile/frames', 'tactile/state', 'joint_states', 'grasp/state', 'tared')
+#: Longest wait for one answer of a polled service before asking again [s].
+CALL_ATTEMPT = 5.0
 
 
 
@@ -175,7 +177,9 @@ class Watcher(Node):
 
         Used to let every transition a launch requested finish (the launch's ChangeState
         calls are answered once the node is in the final state) before the launch is shut
-        down.
+        down. Each call waits at most :data:`CALL_ATTEMPT` seconds: a request sent as soon as
+        the service is discovered can reach the server before the server has matched this
+        client's reply reader, and its answer is then lost; a fresh call is not.
 
         Returns
         -------
@@ -185,7 +189,8 @@ class Watcher(Node):
         deadline = time.monotonic() + timeout
         state = None
         while time.monotonic() < deadline:
-            state = self.lifecycle_state(node, max(1.0, deadline - time.monotonic()))
+            remaining = deadline - time.monotonic()
+            state = self.lifecycle_state(node, min(CALL_ATTEMPT, max(1.0, remaining)))
             if state == label:
                 return state
             time.sleep(0.2)
