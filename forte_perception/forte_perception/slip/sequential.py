@@ -45,18 +45,22 @@ restarts ``S``):
    So the band-passed signal of each channel over the last ``fs / band[0]`` samples (one
    period of the band's lowest frequency, 0.1 s) is read at every alarm the level shift
    would veto: a channel *rings* when its fast excess is at or above the drift and the
-   signal alternates ``ring_crossings`` (3) times between above ``ring_fraction`` (0.5) of
-   its peak magnitude and below minus that (three alternations span one whole period: only
-   a component at or above the band's lower edge makes them within the window), at most as
-   fast as the band's upper edge (median spacing of the alternations at least
-   ``fs / (2 band[1])``, 20 samples: a 62-150 Hz motor hum leaking into the band alternates
-   faster, even where its amplitude modulation leaves cycles under the threshold). Two more
-   conditions keep what is not a finger's mode out: the peak magnitude is at least
-   ``ring_least`` (1 LSB; one code step through the band-pass is a lobe of 0.71 LSB, so
-   code flicker under sub-LSB noise alternates below it), and the channel's fast power in
+   signal alternates ``ring_crossings`` (2) times between above ``ring_fraction`` (0.5) of
+   its peak magnitude and below minus that (up, down, up: one whole period of an
+   oscillation), with a median spacing of the alternations between half a period of the
+   band's upper edge and half a period of its lower edge (``fs / (2 band[1])`` to
+   ``fs / (2 band[0])``, 20 to 100 samples: the finger's modes lie in the band, while a
+   62-150 Hz motor hum leaking into the band alternates faster, even where its amplitude
+   modulation leaves cycles under the threshold, and a 0.5-5 Hz sway's skirt slower).
+   Three more conditions keep what is not a finger's mode out: the peak magnitude is at
+   least ``ring_least`` (1 LSB; one code step through the band-pass is a lobe of 0.71 LSB,
+   so code flicker under sub-LSB noise alternates below it); the channel's fast power in
    the slip band is above its power in ``high_band`` (a ringing mode at 38 Hz already puts
    5.2 dB less into the high band than into the slip band, lower modes less still; a motor
-   hum does the opposite). A finger with a ringing channel does not vote for the level-shift veto.
+   hum does the opposite); and it is the loudest channel of its finger in the slip band (a
+   release rings the whole finger, most clearly where the mode's gain is largest; a quieter
+   channel alternating while the loudest does not is noise near the code step). A finger
+   with a ringing channel does not vote for the level-shift veto.
 2. *Out-of-band vibration switching on* (motor hum at 62-150 Hz, only 4-6 dB down in the
    slip band's skirt at its lowest frequencies): the same fast estimate in ``high_band``
    (60-250 Hz) gains more power than the slip band. Per finger, the power gained (linear,
@@ -120,7 +124,8 @@ class SequentialParams:
     ring_crossings : int
         Alternations of a channel's band-passed signal between +-``ring_fraction`` of its
         peak within one period of the band's lowest frequency that make it ring and exempt
-        its finger from the level-shift veto (3; 0: no exemption).
+        its finger from the level-shift veto (2; 0: no exemption; 1 is refused: the spacing
+        of the alternations needs two).
     ring_fraction : float
         The alternations' threshold, a fraction of the window's peak magnitude (0.5).
     ring_least : float
@@ -134,7 +139,7 @@ class SequentialParams:
     high_band: tuple[float, float] = (60.0, 250.0)
     hum_ratio_db: float = -2.0
     servo_hold: float = 0.1
-    ring_crossings: int = 3
+    ring_crossings: int = 2
     ring_fraction: float = 0.5
     ring_least: float = 1.0
 
@@ -158,8 +163,10 @@ class SequentialParams:
             raise ValueError(f'hum_ratio_db must be finite, got {self.hum_ratio_db}')
         if not (math.isfinite(self.servo_hold) and self.servo_hold >= 0):
             raise ValueError(f'servo_hold must be >= 0 s, got {self.servo_hold}')
-        if int(self.ring_crossings) != self.ring_crossings or self.ring_crossings < 0:
-            raise ValueError(f'ring_crossings must be an integer >= 0, got {self.ring_crossings}')
+        if int(self.ring_crossings) != self.ring_crossings or self.ring_crossings == 1 \
+                or self.ring_crossings < 0:  # a spacing needs two alternations
+            raise ValueError(f'ring_crossings must be 0 (no exemption) or an integer >= 2, '
+                             f'got {self.ring_crossings}')
         if not 0 < self.ring_fraction < 1:
             raise ValueError(f'ring_fraction must lie in (0, 1), got {self.ring_fraction}')
         if not (math.isfinite(self.ring_least) and self.ring_least >= 0):
@@ -206,6 +213,17 @@ def alternations(sos: np.ndarray, x: np.ndarray, window: int, fraction: float,
     return count, spacing, peak
 
 
+def loudest_of_finger(power: np.ndarray) -> np.ndarray:
+    """Per finger, its channel of the largest ``power`` (6,) (NaN: unusable, never the
+    loudest); (6,) bool, one channel per finger with a usable one."""
+    loudest = np.zeros(N_CHANNELS, bool)
+    for channels in FINGER_CHANNELS:
+        values = power[list(channels)]
+        if np.isfinite(values).any():
+            loudest[channels[int(np.nanargmax(values))]] = True
+    return loudest
+
+
 def _cusum_of(slip: SlipParams) -> CusumParams:
     """The CUSUM of the sequential mode: drift, threshold and single-channel offset from
     ``slip``'s ``sequential_*`` fields (their one source of defaults), clearing after 0.05 s."""
@@ -247,7 +265,8 @@ class SequentialDetector:
         self._high_levels = QuietLevels(self.state.levels.block, self.state.levels.beta)
         self._cusum = BandPowerCusum(dt, self.params.cusum)
         self._ring_window = int(round(fs / band[0]))  # one period of the band's lowest
-        self._ring_spacing = fs / (2.0 * band[1])  # half a period of the upper edge
+        # median spacing of the alternations: half a period of the upper to the lower edge
+        self._ring_spacing = (fs / (2.0 * band[1]), fs / (2.0 * band[0]))
         self._ring_rest = sosfilt_zi(self._low.sos)
         if self._ring_window > 2 * int(self.params.shift_length):
             raise ValueError(f'one period of {band[0]} Hz ({self._ring_window} samples) must '
@@ -358,8 +377,10 @@ class SequentialDetector:
         ``low`` (6,) [dB] at least the drift over the CUSUM's level and above the high band's
         ``high`` (6,) [dB], and the band-passed ``span`` (the last samples (n, 6), filtered
         from their first value at rest) alternating ``ring_crossings`` times within the ring
-        window, no faster than the band's upper edge, with a peak of ``ring_least``."""
-        candidates = ((low - self._cusum.level) >= self.params.cusum.drift) & (low > high)
+        window, as fast as a component inside the band, with a peak of ``ring_least``, and
+        the loudest of its finger in ``low``."""
+        candidates = (((low - self._cusum.level) >= self.params.cusum.drift) & (low > high)
+                      & loudest_of_finger(low))
         if self.params.ring_crossings == 0 or not candidates.any():  # NaN: not a candidate
             return np.zeros(N_CHANNELS, bool)
         start = span.shape[0] - self._ring_window - self._ring_window // 2  # half to settle
@@ -367,7 +388,7 @@ class SequentialDetector:
                                             self._ring_window, self.params.ring_fraction,
                                             self._ring_rest)
         return (candidates & (count >= self.params.ring_crossings)
-                & (spacing >= self._ring_spacing)
+                & (spacing >= self._ring_spacing[0]) & (spacing <= self._ring_spacing[1])
                 & (peak >= self.params.ring_least * QUANTUM))
 
     def _veto(self, ext: np.ndarray, origin: int, samples: tuple[int, int], low: np.ndarray,

@@ -1,11 +1,14 @@
 """The servo gate (forte_perception.slip.servo_gate): intervals of gated pipeline samples."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
 from forte_perception.slip.params import SlipParams
+from forte_perception.slip.sequential import SequentialParams
 from forte_perception.slip.servo_gate import ServoGate
 from forte_perception.testing import ringing_after_a_step, tightening_then_slip
 
@@ -101,12 +104,19 @@ def test_pipeline_hears_a_slip_that_made_the_servo_move(slip):
     assert flagged and onset <= flagged[0] <= onset + 100
 
 
+@pytest.mark.parametrize('ring_exempt', [False, True])
 @pytest.mark.parametrize('motion', [0.015, None])
-def test_pipeline_hears_a_slip_after_a_known_motion_s_gate(motion):
+def test_pipeline_hears_a_slip_after_a_known_motion_s_gate(motion, ring_exempt, monkeypatch):
     """A tightening told with its motion (15 ms at the profile velocity): an 8 LSB slip
     beginning 30 ms after the gate is flagged within 50 ms (the step is over and decayed,
-    the level-shift veto no longer blames it); told without its motion, the step stays in
-    the veto's spans and the slip is flagged later."""
+    the level-shift veto no longer blames it). Told without its motion, the step stays in
+    the veto's spans: without the ringing exemption the slip is flagged later; with it (the
+    default) the slip's 25 Hz ringing has shown a whole period within 50 ms and is heard
+    through the step all the same."""
+    if not ring_exempt:
+        defaults = SequentialParams.from_slip
+        monkeypatch.setattr(SequentialParams, 'from_slip', classmethod(
+            lambda cls, slip: replace(defaults(slip), ring_crossings=0)))
     at = 8000
     gate_end = at + int(round((0.1 + (motion or 0.0)) * 2000))
     onset = gate_end + 60
@@ -119,7 +129,7 @@ def test_pipeline_hears_a_slip_after_a_known_motion_s_gate(motion):
         if pipeline.process(x[start:start + 20]).slip:
             flagged.append(start + 19)
     assert flagged and flagged[0] >= onset
-    if motion is None:
+    if motion is None and not ring_exempt:
         assert flagged[0] > onset + 100
     else:
         assert flagged[0] <= onset + 100

@@ -10,7 +10,14 @@ import numpy as np
 import pytest
 from scipy.signal import bilinear, butter, lfilter, sosfreqz
 
-from forte_perception.slip.sequential import SequentialDetector, SequentialParams, alternations
+from forte_perception.evaluation.scenes import make_scene
+from forte_perception.evaluation.wiring import WIRINGS, run_scene
+from forte_perception.slip.sequential import (
+    SequentialDetector,
+    SequentialParams,
+    alternations,
+    loudest_of_finger,
+)
 from forte_perception.testing import tightening
 from forte_ros.contract import QUANTUM
 
@@ -160,8 +167,9 @@ def test_bad_parameters_are_refused():
         SequentialDetector(FS, 4, params=SequentialParams(shift_length=0))
     with pytest.raises(ValueError, match='servo_hold'):
         SequentialDetector(FS, 4, params=SequentialParams(servo_hold=-0.1))
-    with pytest.raises(ValueError, match='ring_crossings'):
-        SequentialDetector(FS, 4, params=SequentialParams(ring_crossings=-1))
+    for crossings in (-1, 1, 2.5):
+        with pytest.raises(ValueError, match='ring_crossings'):
+            SequentialDetector(FS, 4, params=SequentialParams(ring_crossings=crossings))
     with pytest.raises(ValueError, match='ring_fraction'):
         SequentialDetector(FS, 4, params=SequentialParams(ring_fraction=1.0))
     with pytest.raises(ValueError, match='ring_least'):
@@ -262,13 +270,33 @@ def test_a_sawtooth_slip_is_heard_through_the_level_shift_veto(share):
     assert slip.any() and ONSET <= ends[slip][0] <= ONSET + 0.1 * FS
 
 
-@pytest.mark.parametrize('frequency', [1.0, 3.0, 5.0])
-def test_a_sway_is_still_vetoed(frequency):
-    """The held object swaying at 0.5-5 Hz with 100 LSB (0.3 s raised-cosine edges): its
-    skirt leaks into the band at every phase, it never rings, no alarm."""
+@pytest.mark.parametrize('amplitude', [30.0, 100.0])
+@pytest.mark.parametrize('frequency', [1.0, 3.0, 5.0, 7.0])
+def test_a_sway_is_still_vetoed(frequency, amplitude):
+    """The held object swaying at 0.5-5 Hz with 30 or 100 LSB (0.3 s raised-cosine edges):
+    its skirt leaks into the band at every phase, it never rings, no alarm. At 7 Hz, below
+    the band's lower edge, noise makes the band-passed swing alternate twice within the
+    window, but half a period apart (143 samples), slower than any mode inside the band
+    (at most 100 samples)."""
     x = scene()
     k = np.arange(x.shape[0])
     edge = 0.5 - 0.5 * np.cos(np.pi * np.clip((k - ONSET) / 600.0, 0.0, 1.0))
-    x += (edge * 100.0 * np.sin(2 * np.pi * frequency * k / FS))[:, None]
+    x += (edge * amplitude * np.sin(2 * np.pi * frequency * k / FS))[:, None]
     _, slip, _, _ = detect(x)
     assert not slip.any()
+
+
+def test_the_loudest_channel_of_each_finger():
+    power = np.array([1.0, 3.0, 2.0, np.nan, -4.0, -5.0])
+    assert loudest_of_finger(power).tolist() == [False, True, False, False, True, False]
+    assert not loudest_of_finger(np.array([np.nan] * 3 + [0.0] * 3))[:3].any()  # none usable
+
+
+def test_a_quieter_channel_alternating_does_not_make_its_finger_ring():
+    """The tune part's slow distractor (low_frequency, profile p2, seed 4): its skirt makes
+    the right finger's distal and middle channels loud without alternating (band-passed
+    peaks 4.9 and 2.9 LSB), while its root channel (1.5 LSB) alternates twice with the
+    noise. The finger does not ring, the level-shift veto holds, no flag (the pipeline in
+    20-sample chunks)."""
+    outcome = run_scene(make_scene('low_frequency', 'p2', 4), 'sequential', WIRINGS[0], 20)
+    assert outcome.runs.shape[0] == 0
