@@ -86,6 +86,8 @@ import numpy as np
 from forte_perception.slip.state import QuietLevels, finger_means
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
 
+_FINGER_INDEX = np.array(FINGER_CHANNELS)  # (2, 3): a finger's channels
+
 __all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'expected_delay', 'pooled_excess']
 
 
@@ -163,13 +165,10 @@ def pooled_excess(z: np.ndarray, single_offset: float) -> np.ndarray:
     mean = finger_means(z)
     if not math.isfinite(single_offset):
         return mean
-    for finger, channels in enumerate(FINGER_CHANNELS):
-        part = z[:, list(channels)]
-        known = np.isfinite(part).any(axis=1)
-        if known.any():
-            largest = np.max(np.where(np.isfinite(part[known]), part[known], -np.inf), axis=1)
-            mean[known, finger] = np.fmax(mean[known, finger], largest - single_offset)
-    return mean
+    grouped = z[:, _FINGER_INDEX]  # (m, 2, 3)
+    # fmax skips NaN (NaN only where all are): the largest usable channel per finger
+    largest = np.fmax.reduce(np.where(np.isfinite(grouped), grouped, np.nan), axis=2)
+    return np.fmax(mean, largest - single_offset)
 
 
 def expected_delay(step_db: float, params: CusumParams, dt: float) -> float:
