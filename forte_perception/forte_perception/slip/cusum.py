@@ -87,6 +87,7 @@ from forte_perception.slip.state import QuietLevels, finger_means
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
 
 _FINGER_INDEX = np.array(FINGER_CHANNELS)  # (2, 3): a finger's channels
+_CHANNEL_FINGER = np.argsort(_FINGER_INDEX.ravel()) // _FINGER_INDEX.shape[1]  # (6,)
 
 __all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'expected_delay', 'pooled_excess']
 
@@ -293,20 +294,40 @@ class BandPowerCusum:
         z = seg - level  # NaN where the channel is unusable or has no level yet
         out.active[lo:hi] = np.isfinite(z).any(axis=1) | np.isfinite(level).any()
         excess = pooled_excess(z, self.params.single_offset)  # NaN: no usable channel
+        out.excess[lo:hi] = excess
+        x = np.where(np.isnan(excess), 0.0, (excess - self.params.drift) * self.dt)  # (n, 2)
         quiet = np.zeros(seg.shape, bool)
-        for f, finger in enumerate(self._fingers):
-            zbar = excess[:, f]
-            out.excess[lo:hi, f] = zbar
-            x = np.where(np.isnan(zbar), 0.0, (zbar - self.params.drift) * self.dt)
-            s, slipping, alarm = self._run(finger, x, zbar, lo, veto, out)
-            out.statistic[lo:hi, f] = s
-            out.slipping[lo:hi, f] = slipping
-            out.alarm[lo:hi, f] = alarm
-            quiet[:, list(finger.channels)] = (~slipping & (s == 0.0))[:, None]
+        if not self._quiet_run(x, out.statistic[lo:hi], quiet):
+            for f, finger in enumerate(self._fingers):
+                s, slipping, alarm = self._run(finger, x[:, f], excess[:, f], lo, veto, out)
+                out.statistic[lo:hi, f] = s
+                out.slipping[lo:hi, f] = slipping
+                out.alarm[lo:hi, f] = alarm
+                quiet[:, list(finger.channels)] = (~slipping & (s == 0.0))[:, None]
         if self._levels.record(np.where(quiet & np.isfinite(seg), seg, np.nan)):  # new levels
             for finger in self._fingers:
                 if not finger.slipping:  # S = C - M; re-base so that C stays small
                     finger.c, finger.m = finger.c - finger.m, 0.0
+
+    def _quiet_run(self, x: np.ndarray, statistic: np.ndarray, quiet: np.ndarray) -> bool:
+        """Both fingers over one segment at once when neither is slipping nor alarms in it
+        (the common case; the same sums as :meth:`_run`): fill ``statistic`` (n, 2) and
+        ``quiet`` (n, 6) and return True; otherwise change nothing and return False."""
+        if any(finger.slipping for finger in self._fingers):
+            return False
+        part = x.copy()
+        part[0] += [finger.c for finger in self._fingers]
+        c = np.add.accumulate(part, axis=0)
+        mins = np.minimum.accumulate(np.minimum(c, [finger.m for finger in self._fingers]),
+                                     axis=0)
+        stat = c - mins
+        if (stat > self.params.threshold).any():
+            return False
+        statistic[:] = stat
+        quiet[:] = (stat == 0.0)[:, _CHANNEL_FINGER]
+        for f, finger in enumerate(self._fingers):
+            finger.c, finger.m = float(c[-1, f]), float(mins[-1, f])
+        return True
 
     def _run(self, finger: _Finger, x: np.ndarray, zbar: np.ndarray, offset: int,
              veto: Callable[[int], bool] | None, out: CusumResult
