@@ -25,9 +25,11 @@ detector, flags outside the recording's ``mask`` ignored):
 load (only fields that have a node parameter, :data:`NODE_PARAMETERS`, differ from the
 default :class:`~forte_perception.slip.params.SlipParams`), those with precision >=
 ``precision_floor`` (default 0.9); of these the highest F1; ties (equal F1) go to the lower
-latency p50, then to the threshold closest to its default (T; h in the sequential mode),
-then to fewer false runs. If no setting reaches the floor, the highest F1 of all loadable
-settings, and the result says so.
+latency p50 (a p50 less than one detector update, ``hop / fs`` = 2 ms, above the lowest is
+a tie: the onsets fall between updates, so a smaller difference is the median's
+quantisation, not the setting's speed), then to the threshold closest to its default (T; h
+in the sequential mode), then to fewer false runs. If no setting reaches the floor, the
+highest F1 of all loadable settings, and the result says so.
 """
 from __future__ import annotations
 
@@ -53,11 +55,13 @@ from forte_perception.evaluation.slip_metrics import (
 from forte_perception.median import MEDIAN_WINDOW, running_median
 from forte_perception.slip.detector import SlipParams, slip_features
 from forte_perception.slip.sequential import SequentialDetector, SequentialParams
+from forte_ros.contract import SAMPLE_RATE
 
 __all__ = ['DEFAULT_ROBUST_GRID', 'DEFAULT_SEQUENTIAL_THRESHOLDS', 'DEFAULT_THRESHOLDS',
-           'NODE_NAME', 'NODE_PARAMETERS', 'PRECISION_FLOOR', 'Recommendation', 'SweepRow',
-           'node_settable', 'overlay', 'overlay_yaml', 'parameter_grid', 'params_from_overlay',
-           'prefilter', 'recommend', 'score', 'sweep', 'table', 'write_overlay']
+           'LATENCY_TIE', 'NODE_NAME', 'NODE_PARAMETERS', 'PRECISION_FLOOR', 'Recommendation',
+           'SweepRow', 'node_settable', 'overlay', 'overlay_yaml', 'parameter_grid',
+           'params_from_overlay', 'prefilter', 'recommend', 'score', 'sweep', 'table',
+           'write_overlay']
 
 #: Node name of the perception node in every graph (forte_bringup.graph), the overlay's key.
 NODE_NAME = 'perception'
@@ -82,6 +86,8 @@ DEFAULT_SEQUENTIAL_THRESHOLDS = (0.02, 0.05, 0.1, 0.2)
 DEFAULT_ROBUST_GRID = {'single_threshold': (3.0, 4.5, 6.0), 'veto_ratio': (0.2, 0.33, 0.5)}
 #: Precision a recommended setting must reach (flag runs) [1].
 PRECISION_FLOOR = 0.9
+#: Latency p50s closer than one detector update of the default parameters tie [s].
+LATENCY_TIE = SlipParams().hop / SAMPLE_RATE
 
 
 @dataclass
@@ -298,17 +304,31 @@ class Recommendation:
     rule: str
 
 
-def _rank(row: SweepRow) -> tuple:
-    f1 = row.f1 if not math.isnan(row.f1) else -1.0
-    p50 = row.latency(50) if not math.isnan(row.latency(50)) else math.inf
-    name = 'sequential_threshold' if row.params.mode == 'sequential' else 'threshold'
-    distance = abs(getattr(row.params, name) - getattr(SlipParams(), name))
-    return (-f1, p50, distance, row.false_runs)
+def _best(rows: Sequence[SweepRow], latency_tie: float) -> SweepRow:
+    """The highest F1; of equal F1, a latency p50 within ``latency_tie`` [s] of the lowest;
+    then the threshold closest to its default; then the fewest false runs."""
+    def f1(row: SweepRow) -> float:
+        return row.f1 if not math.isnan(row.f1) else -1.0
+
+    def p50(row: SweepRow) -> float:
+        return row.latency(50) if not math.isnan(row.latency(50)) else math.inf
+
+    def distance(row: SweepRow) -> float:
+        name = 'sequential_threshold' if row.params.mode == 'sequential' else 'threshold'
+        return abs(getattr(row.params, name) - getattr(SlipParams(), name))
+
+    top = max(f1(row) for row in rows)
+    tied = [row for row in rows if f1(row) == top]
+    fastest = min(p50(row) for row in tied)
+    if math.isfinite(fastest):
+        tied = [row for row in tied if p50(row) - fastest < latency_tie]
+    return min(tied, key=lambda row: (distance(row), row.false_runs))
 
 
-def recommend(rows: Sequence[SweepRow], precision_floor: float = PRECISION_FLOOR
-              ) -> Recommendation:
-    """The recommended setting of a sweep (rule in the module docstring).
+def recommend(rows: Sequence[SweepRow], precision_floor: float = PRECISION_FLOOR,
+              latency_tie: float = LATENCY_TIE) -> Recommendation:
+    """The recommended setting of a sweep (rule in the module docstring; ``latency_tie``
+    [s]: latency p50s closer than this to the lowest tie).
 
     Raises
     ------
@@ -321,12 +341,12 @@ def recommend(rows: Sequence[SweepRow], precision_floor: float = PRECISION_FLOOR
         raise ValueError('no swept setting can be loaded by the perception node; include the '
                          'default robust parameters in the grid')
     rule = (f'loadable settings with precision >= {precision_floor:g}: highest F1, then lowest '
-            'latency p50, then the threshold (T, or h in the sequential mode) closest to the '
-            'default, then fewest false runs')
+            f'latency p50 (within {latency_tie * 1e3:g} ms of it ties), then the threshold (T, '
+            'or h in the sequential mode) closest to the default, then fewest false runs')
     passing = [r for r in loadable if not math.isnan(r.precision)
                and r.precision >= precision_floor]
     chosen = passing or loadable
-    best = min(chosen, key=_rank)
+    best = _best(chosen, latency_tie)
     if not passing:
         rule += '; no setting reached the floor: highest F1 of all loadable settings'
     return Recommendation(best, bool(passing), rule)

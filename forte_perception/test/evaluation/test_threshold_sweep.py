@@ -115,6 +115,9 @@ def test_recommendation_rule():
     near = row(2.5, (10, 0), 9, 0.05)
     assert recommend([best, near]).row is best           # |1.5 - 2| = |2.5 - 2|: grid order
     assert recommend([row(1.0, (10, 0), 9, 0.05), near]).row is near
+    # a p50 less than one detector update (2 ms) lower is the median's quantisation: a tie
+    assert recommend([row(1.0, (10, 0), 9, 0.049), near]).row is near
+    assert recommend([row(1.0, (10, 0), 9, 0.047), near]).row.params.threshold == 1.0
     # settings the node cannot load are never recommended
     hidden = row(2.0, (10, 0), 10, 0.01, veto_span=800)
     assert not node_settable(hidden.params)
