@@ -252,6 +252,25 @@ class Watcher(Node):
         finally:
             self.destroy_action_client(client)
 
+    def grasp_once_inputs_flow(self, goal: Any, timeout: float, attempts: int = 3
+                               ) -> tuple[bool, Any, list]:
+        """:meth:`grasp`, sent again (at most ``attempts`` times, 1 s apart) while the
+        controller refuses it before any motion because an input was stale.
+
+        On two shared cores a graph's process can be starved for longer than the
+        controller's freshness bounds (0.5 s); the controller then rightly refuses the goal
+        before moving anything, and a test about the grasp itself asks again. Every refusal
+        is printed.
+        """
+        for attempt in range(1, attempts):
+            accepted, result, feedback = self.grasp(goal, timeout)
+            if result is None or 'refused before any motion' not in result.message \
+                    or 'STALE' not in result.message:
+                return accepted, result, feedback
+            print(f'grasp attempt {attempt} of {attempts}: {result.message}; asking again')
+            time.sleep(1.0)
+        return self.grasp(goal, timeout)
+
     def destroy_action_client(self, client: Any) -> None:
         """Destroy an action client of this probe in its executor's thread.
 

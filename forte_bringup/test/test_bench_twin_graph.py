@@ -120,7 +120,7 @@ def test_a_forte_grasp_on_the_bench_twin_holds_the_object(grasp_object: str):
         assert watcher.truth.object_state == SimGroundTruth.OBJECT_RESTING
         goal = Grasp.Goal(controller=Grasp.Goal.FORTE, lift_distance=GRASPS[grasp_object][1],
                           lift_speed=LIFT_SPEED, timeout=90.0)
-        accepted, result, feedback = watcher.grasp(goal, timeout=180.0)
+        accepted, result, feedback = watcher.grasp_once_inputs_flow(goal, timeout=180.0)
         assert accepted, watcher.last_grasp_state
         assert result is not None, ('no result', watcher.last_grasp_state)
         # the claim against the scene's ground truth (which the controller never sees): the

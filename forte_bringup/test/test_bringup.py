@@ -267,7 +267,7 @@ def test_sim_graph_serves_a_grasp(watcher, tmp_path):
         assert watcher.truth is not None and watcher.truth.object_name == 'raspberry'
         assert watcher.truth.object_state == SimGroundTruth.OBJECT_RESTING
         goal = Grasp.Goal(controller=Grasp.Goal.FORTE, lift_distance=0.01, timeout=60.0)
-        accepted, result, feedback = watcher.grasp(goal, timeout=120.0)
+        accepted, result, feedback = watcher.grasp_once_inputs_flow(goal, timeout=120.0)
         assert accepted
         assert result is not None, watcher.last_grasp_state
         # the claim against the simulator's ground truth (which the controller never sees)

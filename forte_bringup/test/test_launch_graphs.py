@@ -95,7 +95,7 @@ def test_sim_graph_serves_a_grasp():
         assert wait_until(lambda: watcher.counts['joint_states'] > 10, WAIT), watcher.counts
         assert wait_until(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts
         goal = Grasp.Goal(controller=Grasp.Goal.FORTE, lift_distance=0.01, timeout=60.0)
-        accepted, result, feedback = watcher.grasp(goal, timeout=180.0)
+        accepted, result, feedback = watcher.grasp_once_inputs_flow(goal, timeout=180.0)
         assert accepted, watcher.last_grasp_state
         assert result is not None, ('no result', watcher.last_grasp_state)
         # the claim against the simulator's ground truth (which the controller never sees)
