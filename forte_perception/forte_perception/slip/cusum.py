@@ -83,11 +83,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from forte_perception.slip.state import QuietLevels, finger_means
+from forte_perception.slip.state import FINGER_INDEX, QuietLevels, finger_means
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
 
-_FINGER_INDEX = np.array(FINGER_CHANNELS)  # (2, 3): a finger's channels
-_CHANNEL_FINGER = np.argsort(_FINGER_INDEX.ravel()) // _FINGER_INDEX.shape[1]  # (6,)
+#: The finger of each channel, (6,).
+_CHANNEL_FINGER = np.argsort(FINGER_INDEX.ravel()) // FINGER_INDEX.shape[1]
 
 __all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'expected_delay', 'pooled_excess']
 
@@ -166,7 +166,7 @@ def pooled_excess(z: np.ndarray, single_offset: float) -> np.ndarray:
     mean = finger_means(z)
     if not math.isfinite(single_offset):
         return mean
-    grouped = z[:, _FINGER_INDEX]  # (m, 2, 3)
+    grouped = z[:, FINGER_INDEX]  # (m, 2, 3)
     # fmax skips NaN (NaN only where all are): the largest usable channel per finger
     largest = np.fmax.reduce(np.where(np.isfinite(grouped), grouped, np.nan), axis=2)
     return np.fmax(mean, largest - single_offset)

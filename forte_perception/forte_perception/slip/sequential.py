@@ -379,10 +379,12 @@ class SequentialDetector:
         from their first value at rest) alternating ``ring_crossings`` times within the ring
         window, as fast as a component inside the band, with a peak of ``ring_least``, and
         the loudest of its finger in ``low``."""
+        if self.params.ring_crossings == 0:
+            return np.zeros(N_CHANNELS, bool)
         candidates = (((low - self._cusum.level) >= self.params.cusum.drift) & (low > high)
                       & loudest_of_finger(low))
-        if self.params.ring_crossings == 0 or not candidates.any():  # NaN: not a candidate
-            return np.zeros(N_CHANNELS, bool)
+        if not candidates.any():  # NaN: not a candidate
+            return candidates
         start = span.shape[0] - self._ring_window - self._ring_window // 2  # half to settle
         count, spacing, peak = alternations(self._low.sos, span[max(start, 0):],
                                             self._ring_window, self.params.ring_fraction,

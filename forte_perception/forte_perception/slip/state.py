@@ -74,12 +74,12 @@ from scipy.signal import butter, sosfilt, sosfilt_zi
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, QUANTUM
 
 #: Each finger's channels, (2, 3): one gather groups a (k, 6) array by finger.
-_FINGER_INDEX = np.array(FINGER_CHANNELS)
+FINGER_INDEX = np.array(FINGER_CHANNELS)
 #: Updates since the last release before the first one (longer than any decay time).
 _NO_RELEASE = 1 << 30
 
-__all__ = ['BandPower', 'QuietLevels', 'SlippingParams', 'SlippingState', 'SlippingUpdate',
-           'finger_means', 'quantisation_floor', 'update_quiet_levels']
+__all__ = ['FINGER_INDEX', 'BandPower', 'QuietLevels', 'SlippingParams', 'SlippingState',
+           'SlippingUpdate', 'finger_means', 'quantisation_floor', 'update_quiet_levels']
 
 
 @dataclass(frozen=True)
@@ -463,7 +463,7 @@ class SlippingState:
 def finger_means(values: np.ndarray) -> np.ndarray:
     """Per finger, the mean of its channels' finite values: (k, 6) -> (k, 2); NaN where a
     finger has none (NaN or inf: unusable, or no quiet level yet)."""
-    grouped = values[:, _FINGER_INDEX]  # (k, 2, 3)
+    grouped = values[:, FINGER_INDEX]  # (k, 2, 3)
     known = np.isfinite(grouped)
     count = known.sum(axis=2)
     total = np.where(known, grouped, 0.0).sum(axis=2)
