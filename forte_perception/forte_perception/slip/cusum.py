@@ -43,6 +43,18 @@ on the tune part of the slip set, not from a formula. Delay is counted from when
 rises; the window itself adds the time the slip's vibration needs to dominate the
 Hann-weighted 200 ms window (a few tens of ms for a strong slip).
 
+**Two drifts** (``weak_drift``, ``weak_threshold``; off unless set). The test is optimal for
+the rise ``D = 2 k`` it is tuned to and slow for smaller ones: a rise just above ``k`` needs
+``h / (D - k)``, and one under ``k`` is never found. A weak stick-slip raises the fast band
+power by 9-14 dB, barely over the sequential mode's 8 dB drift. A second statistic with a
+lower drift ``k2`` and a higher threshold ``h2`` (the usual bank of CUSUMs for an unknown
+change size) runs on the same input; a finger alarms when either exceeds its threshold, and
+the veto, the slipping state and the restart are shared (either alarm restarts both sums).
+The quiet levels stay the first test's (updates with ``S_f = 0``), so with the weak test off
+every output is bit for bit the single test's. The lower drift admits the larger spread of a
+mean of fewer channels, so the weak test hears only fingers whose three channels are all
+usable at that update; a finger with a channel lost keeps the first test.
+
 **Quiet level.** ``L_c`` is measured, not a constant: per block of ``level_block`` seconds
 (fixed absolute update indices), the median of ``y_c`` over the block's *quiet* updates
 (the finger neither slipping nor accumulating, ``S_f = 0``) moves ``L_c`` by the fraction
@@ -115,6 +127,9 @@ class CusumParams:
     single_offset : float
         A finger's input is the larger of its channels' mean excess and its largest
         channel's excess less this [dB] (inf: the mean alone; :func:`pooled_excess`).
+    weak_drift, weak_threshold : float
+        The weak-change test beside it: a second drift, under ``drift`` [dB] (4), and its
+        threshold [dB s] (inf: off); module docstring, "Two drifts".
     """
 
     drift: float = 6.0
@@ -124,6 +139,13 @@ class CusumParams:
     level_block: float = 0.2
     level_tau: float = 5.0
     single_offset: float = math.inf
+    weak_drift: float = 4.0
+    weak_threshold: float = math.inf
+
+    @property
+    def weak(self) -> bool:
+        """True when the weak-change test runs."""
+        return math.isfinite(self.weak_threshold)
 
     def validate(self) -> None:
         """Raise ValueError with a reason if a value is unusable."""
@@ -137,6 +159,14 @@ class CusumParams:
             raise ValueError(f'clear_time must be >= 0, got {self.clear_time}')
         if not self.single_offset >= 0:  # NaN fails too; inf is allowed (off)
             raise ValueError(f'single_offset must be >= 0 dB, got {self.single_offset}')
+        if not (math.isfinite(self.weak_drift) and self.weak_drift > 0):
+            raise ValueError(f'weak_drift must be positive and finite, got {self.weak_drift}')
+        if not self.weak_threshold > 0:  # inf allowed (off), NaN refused
+            raise ValueError(f'weak_threshold must be > 0 dB s (inf: off), '
+                             f'got {self.weak_threshold}')
+        if self.weak and not self.weak_drift < self.drift:
+            raise ValueError(f'weak_drift ({self.weak_drift} dB) must lie under drift '
+                             f'({self.drift} dB): it is the test for the smaller change')
 
 
 def pooled_excess(z: np.ndarray, single_offset: float) -> np.ndarray:
@@ -172,13 +202,27 @@ def pooled_excess(z: np.ndarray, single_offset: float) -> np.ndarray:
     return np.fmax(mean, largest - single_offset)
 
 
+def _lindley(x: np.ndarray, c0, m0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Closed-form CUSUM over increments ``x`` (n,) or (n, f) from the carried sum ``c0`` and
+    minimum ``m0`` (scalars or (f,)): the sums C, their running minima M (with ``m0``) and
+    the statistic S = C - M."""
+    part = x.copy()
+    part[0] += c0
+    c = np.add.accumulate(part, axis=0)
+    mins = np.minimum.accumulate(np.minimum(c, m0), axis=0)
+    return c, mins, c - mins
+
+
 def expected_delay(step_db: float, params: CusumParams, dt: float) -> float:
     """Updates from a noise-free step of ``step_db`` in the finger excess to the alarm,
-    starting from ``S = 0`` (inf when the step does not exceed the drift)."""
-    rate = (step_db - params.drift) * dt
-    if rate <= 0:
-        return math.inf
-    return math.floor(params.threshold / rate) + 1
+    starting from ``S = 0``: the sooner of the test and the weak-change test (inf when the
+    step exceeds neither drift)."""
+    tests = [(params.drift, params.threshold)]
+    if params.weak:
+        tests.append((params.weak_drift, params.weak_threshold))
+    delays = [math.floor(threshold / ((step_db - drift) * dt)) + 1
+              for drift, threshold in tests if step_db > drift]
+    return min(delays, default=math.inf)
 
 
 @dataclass
@@ -227,6 +271,7 @@ class _Finger:
 
     c: float = 0.0          # C(t): sequential cumulative sum since the last restart
     m: float = 0.0          # M(t) = min(0, C up to t)
+    weak: tuple[float, float] = (0.0, 0.0)  # (C, M) of the weak-change test
     slipping: bool = False
     below: int = 0          # consecutive updates below the margin while slipping
     channels: tuple[int, ...] = field(default_factory=tuple)
@@ -264,8 +309,8 @@ class BandPowerCusum:
         """Quiet level per channel [dB]; NaN before its first block."""
         return self._levels.level.copy()
 
-    def update(self, psd_db: np.ndarray, veto: Callable[[int], bool] | None = None
-               ) -> CusumResult:
+    def update(self, psd_db: np.ndarray, veto: Callable[[int], bool] | None = None,
+               weak: np.ndarray | None = None) -> CusumResult:
         """Consume updates ``psd_db`` (m, 6) [dB] and return their decisions.
 
         Parameters
@@ -274,9 +319,13 @@ class BandPowerCusum:
             Band maximum per channel [dB]; NaN / inf = channel unusable at that update.
         veto : callable, optional
             ``i -> bool`` for an alarm at row ``i`` of this chunk; True drops it.
+        weak : ndarray (m, 2), bool, optional
+            Fingers the weak-change test may hear at each update (default: all; it never
+            hears a finger with a channel unusable).
         """
         y = np.asarray(psd_db, np.float64).reshape(-1, N_CHANNELS)
         m = y.shape[0]
+        self._weak_allowed = None if weak is None else np.asarray(weak, bool).reshape(m, 2)
         out = CusumResult(np.full((m, 2), np.nan), np.full((m, 2), np.nan),
                           np.zeros((m, 2), bool), np.zeros((m, 2), bool), np.zeros(m, bool))
         pos = 0
@@ -296,10 +345,18 @@ class BandPowerCusum:
         excess = pooled_excess(z, self.params.single_offset)  # NaN: no usable channel
         out.excess[lo:hi] = excess
         x = np.where(np.isnan(excess), 0.0, (excess - self.params.drift) * self.dt)  # (n, 2)
+        weak = None
+        if self.params.weak:  # only fingers with every channel usable
+            whole = np.isfinite(z[:, FINGER_INDEX]).all(axis=2)
+            if self._weak_allowed is not None:
+                whole &= self._weak_allowed[lo:hi]
+            weak = np.where(whole, (excess - self.params.weak_drift) * self.dt, 0.0)
         quiet = np.zeros(seg.shape, bool)
-        if not self._quiet_run(x, out.statistic[lo:hi], quiet):
+        if not self._quiet_run(x, weak, out.statistic[lo:hi], quiet):
             for f, finger in enumerate(self._fingers):
-                s, slipping, alarm = self._run(finger, x[:, f], excess[:, f], lo, veto, out)
+                s, slipping, alarm = self._run(
+                    finger, (x[:, f], None if weak is None else weak[:, f]), excess[:, f],
+                    lo, veto, out)
                 out.statistic[lo:hi, f] = s
                 out.slipping[lo:hi, f] = slipping
                 out.alarm[lo:hi, f] = alarm
@@ -308,32 +365,39 @@ class BandPowerCusum:
             for finger in self._fingers:
                 if not finger.slipping:  # S = C - M; re-base so that C stays small
                     finger.c, finger.m = finger.c - finger.m, 0.0
+                    finger.weak = (finger.weak[0] - finger.weak[1], 0.0)
 
-    def _quiet_run(self, x: np.ndarray, statistic: np.ndarray, quiet: np.ndarray) -> bool:
+    def _quiet_run(self, x: np.ndarray, weak: np.ndarray | None, statistic: np.ndarray,
+                   quiet: np.ndarray) -> bool:
         """Both fingers over one segment at once when neither is slipping nor alarms in it
         (the common case; the same sums as :meth:`_run`): fill ``statistic`` (n, 2) and
         ``quiet`` (n, 6) and return True; otherwise change nothing and return False."""
-        if any(finger.slipping for finger in self._fingers):
+        fingers = self._fingers
+        if any(finger.slipping for finger in fingers):
             return False
-        part = x.copy()
-        part[0] += [finger.c for finger in self._fingers]
-        c = np.add.accumulate(part, axis=0)
-        mins = np.minimum.accumulate(np.minimum(c, [finger.m for finger in self._fingers]),
-                                     axis=0)
-        stat = c - mins
+        c, mins, stat = _lindley(x, [f.c for f in fingers], [f.m for f in fingers])
         if (stat > self.params.threshold).any():
             return False
+        if weak is not None:
+            weak_c, weak_mins, weak_stat = _lindley(weak, [f.weak[0] for f in fingers],
+                                                    [f.weak[1] for f in fingers])
+            if (weak_stat > self.params.weak_threshold).any():
+                return False
+            for f, finger in enumerate(fingers):
+                finger.weak = (float(weak_c[-1, f]), float(weak_mins[-1, f]))
         statistic[:] = stat
         quiet[:] = (stat == 0.0)[:, _CHANNEL_FINGER]
-        for f, finger in enumerate(self._fingers):
+        for f, finger in enumerate(fingers):
             finger.c, finger.m = float(c[-1, f]), float(mins[-1, f])
         return True
 
-    def _run(self, finger: _Finger, x: np.ndarray, zbar: np.ndarray, offset: int,
-             veto: Callable[[int], bool] | None, out: CusumResult
+    def _run(self, finger: _Finger, x: tuple[np.ndarray, np.ndarray | None], zbar: np.ndarray,
+             offset: int, veto: Callable[[int], bool] | None, out: CusumResult
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The state machine of one finger over one segment: CUSUM (closed form) until an
-        alarm, slipping until cleared, again."""
+        alarm of either test (``x``: the increments of the test and of the weak-change test,
+        or None), slipping until cleared, again."""
+        x, weak = x
         n = x.size
         s = np.full(n, np.nan)
         slipping = np.zeros(n, bool)
@@ -347,22 +411,24 @@ class BandPowerCusum:
                     return s, slipping, alarm
                 slipping[i:i + j] = True  # cleared at i + j: the statistic restarts there
                 s[i + j] = 0.0
-                finger.slipping, finger.c, finger.m = False, 0.0, 0.0
+                finger.slipping, finger.c, finger.m, finger.weak = False, 0.0, 0.0, (0.0, 0.0)
                 i += j + 1
                 continue
-            part = x[i:].copy()
-            part[0] += finger.c
-            c = np.add.accumulate(part)
-            mins = np.minimum.accumulate(np.minimum(c, finger.m))
-            stat = c - mins
-            over = np.flatnonzero(stat > self.params.threshold)
+            c, mins, stat = _lindley(x[i:], finger.c, finger.m)
+            over = stat > self.params.threshold
+            if weak is not None:
+                weak_c, weak_mins, weak_stat = _lindley(weak[i:], *finger.weak)
+                over |= weak_stat > self.params.weak_threshold
+            over = np.flatnonzero(over)
             if not over.size:
                 s[i:] = stat
                 finger.c, finger.m = float(c[-1]), float(mins[-1])
+                if weak is not None:
+                    finger.weak = (float(weak_c[-1]), float(weak_mins[-1]))
                 return s, slipping, alarm
             a = int(over[0])
             s[i:i + a + 1] = stat[:a + 1]
-            finger.c, finger.m = 0.0, 0.0
+            finger.c, finger.m, finger.weak = 0.0, 0.0, (0.0, 0.0)  # either test restarts both
             if veto is not None and veto(offset + i + a):
                 out.vetoed += 1
             else:

@@ -22,6 +22,14 @@ pooled_excess`), so a slip that one input carries alone (a contact over one leg,
 crossed to the other finger's input, a recording wired to one input) is not diluted to a
 third.
 
+**Weak slips** (issue 38). A 3-10 LSB stick-slip raises the fast excess by 9-14 dB, just over
+the drift, so the first alarm waits ``h / (D - k)``, and a slip under 8 dB is never heard.
+Beside the CUSUM runs the weak-slip test (:data:`WEAK_DRIFT` 6 dB, :data:`WEAK_THRESHOLD`
+0.1 dB s; :class:`~forte_perception.slip.cusum.CusumParams`, "Two drifts"), on fingers with
+all three channels usable; its alarms meet the same vetoes. Chosen on the tune part of the slip
+set (docs/perception.md): a lower drift or threshold (5 dB / 0.15, 4 dB / 0.4) made false
+alarms on sub-LSB quiet holds.
+
 **What else raises the fast power, and the vetoes** (asked at every alarm; a vetoed alarm
 restarts ``S``):
 
@@ -85,6 +93,7 @@ from scipy.signal import sosfilt, sosfilt_zi
 from forte_perception.slip.cusum import BandPowerCusum, CusumParams
 from forte_perception.slip.params import SlipParams
 from forte_perception.slip.state import (
+    FINGER_INDEX,
     BandPower,
     QuietLevels,
     SlippingParams,
@@ -130,6 +139,9 @@ class SequentialParams:
         The alternations' threshold, a fraction of the window's peak magnitude (0.5).
     ring_least : float
         Least peak magnitude of a ringing channel's band-passed signal [LSB] (1.0).
+    weak_least : float
+        The weak-slip test hears a finger only while its loudest channel's fast band
+        amplitude ``sqrt(2 P)`` is at least this [LSB] (1.0; module docstring).
     """
 
     cusum: CusumParams = field(default_factory=lambda: _cusum_of(SlipParams()))
@@ -142,6 +154,7 @@ class SequentialParams:
     ring_crossings: int = 2
     ring_fraction: float = 0.5
     ring_least: float = 1.0
+    weak_least: float = 1.0
 
     @classmethod
     def from_slip(cls, slip: SlipParams) -> SequentialParams:
@@ -171,6 +184,8 @@ class SequentialParams:
             raise ValueError(f'ring_fraction must lie in (0, 1), got {self.ring_fraction}')
         if not (math.isfinite(self.ring_least) and self.ring_least >= 0):
             raise ValueError(f'ring_least must be >= 0 LSB, got {self.ring_least}')
+        if not (math.isfinite(self.weak_least) and self.weak_least >= 0):
+            raise ValueError(f'weak_least must be >= 0 LSB, got {self.weak_least}')
 
 
 def alternations(sos: np.ndarray, x: np.ndarray, window: int, fraction: float,
@@ -224,11 +239,19 @@ def loudest_of_finger(power: np.ndarray) -> np.ndarray:
     return loudest
 
 
+#: The weak-slip test beside the CUSUM: its drift [dB] and threshold [dB s] (module docstring).
+WEAK_DRIFT, WEAK_THRESHOLD = 6.0, 0.1
+
+
 def _cusum_of(slip: SlipParams) -> CusumParams:
     """The CUSUM of the sequential mode: drift, threshold and single-channel offset from
-    ``slip``'s ``sequential_*`` fields (their one source of defaults), clearing after 0.05 s."""
+    ``slip``'s ``sequential_*`` fields (their one source of defaults), clearing after 0.05 s,
+    with the weak-slip test (:data:`WEAK_DRIFT`, :data:`WEAK_THRESHOLD`) where the drift lies
+    above the weak test's (a drift at or under it is already the weaker test)."""
+    weak = WEAK_THRESHOLD if slip.sequential_drift > WEAK_DRIFT else math.inf
     return CusumParams(drift=slip.sequential_drift, threshold=slip.sequential_threshold,
-                       clear_time=0.05, single_offset=slip.sequential_single_offset)
+                       clear_time=0.05, single_offset=slip.sequential_single_offset,
+                       weak_drift=WEAK_DRIFT, weak_threshold=weak)
 
 
 class SequentialDetector:
@@ -339,12 +362,19 @@ class SequentialDetector:
             stop = stop if known else -1  # an unknown motion may still move the level
             return self._veto(ext, origin, (int(ends[i]), stop), low[i], high[i], levels)
 
-        result = self._cusum.update(low, veto)
+        result = self._cusum.update(low, veto, self._audible(low))
         self.vetoed += result.vetoed
         state = self.state.decide(power, result.slip, usable)
         self._samples += x.shape[0]
         self._history = ext[-2 * int(self.params.shift_length):]
         return ends, result.slip, state
+
+    def _audible(self, low: np.ndarray) -> np.ndarray:
+        """Fingers (m, 2) whose loudest channel's fast band amplitude ``sqrt(2 P)`` (``low``
+        (m, 6) [dB]; NaN: unusable) reaches ``weak_least``: where the weak-slip test listens."""
+        least = 0.5 * (self.params.weak_least * QUANTUM) ** 2
+        least = 10.0 * math.log10(least) if least > 0 else -math.inf
+        return np.fmax.reduce(low[:, FINGER_INDEX], axis=2) >= least
 
     def _before_gates(self, low: np.ndarray, gated: np.ndarray | None) -> np.ndarray:
         """Per update (m, 6) [dB]: the fast power ``low`` at the update before the latest

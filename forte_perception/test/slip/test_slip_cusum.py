@@ -1,6 +1,7 @@
 """The band-power CUSUM (forte_perception.slip.cusum): known answers from its derivation
 (delay of a step, quiet channels, slipping state, missing data, chunking, veto)."""
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -12,6 +13,8 @@ from forte_perception.slip.cusum import BandPowerCusum, CusumParams, expected_de
 DT = 4 / 2000.0        # hop 4 at 2 kHz
 LEVEL = -80.0          # quiet level of every channel [dB]
 BLOCK = 100            # updates per level block at the default 0.2 s
+#: the sequential mode's pair: drift 8 dB, h 0.05 dB s; weak-change test 6 dB, 0.1 dB s
+WEAK = CusumParams(drift=8.0, threshold=0.05, weak_drift=6.0, weak_threshold=0.1)
 
 
 def constant(m, value=LEVEL):
@@ -98,15 +101,19 @@ def test_silence_and_saturation_never_alarm():
     assert not out.slip.any() and det.level[2] < LEVEL  # the level follows it down
 
 
-def test_chunks_of_any_size_give_the_batch_result_bit_for_bit():
+@pytest.mark.parametrize('params', [replace(WEAK, weak_threshold=math.inf), WEAK],
+                         ids=['one test', 'weak test'])
+def test_chunks_of_any_size_give_the_batch_result_bit_for_bit(params):
     rng = np.random.default_rng(7)
     y = LEVEL + 2.0 * rng.standard_normal((3000, 6))
     y[800:1100, :3] += 15.0
+    y[1200:1400, 3:] += 7.0                             # heard by the weak test only
     y[2000:2300] += 25.0
     y[1500:1600, 4] = np.nan
-    whole = BandPowerCusum(DT).update(y)
+    whole = BandPowerCusum(DT, params).update(y)
+    assert whole.slip[1200:1400].any() == params.weak
     for sizes in ([1] * 3000, [7] * 429, rng.integers(1, 300, 40).tolist()):
-        det = BandPowerCusum(DT)
+        det = BandPowerCusum(DT, params)
         parts, pos = [], 0
         for size in sizes:
             parts.append(det.update(y[pos:pos + size]))
@@ -163,10 +170,51 @@ def test_quiet_channels_never_alarm_through_the_single_channel_route():
     assert not out.slip.any()
 
 
+def test_the_weak_change_test_hears_a_step_under_the_drift():
+    """A noise-free step of 7.5 dB lies under the 8 dB drift: only the weak-change test (6 dB,
+    0.1 dB s) hears it, after floor(0.1 / (1.5 dB x 2 ms)) + 1 = 34 updates. Where both hear
+    a step, the sooner alarm counts: 20 dB, 3 updates (the test; the weak one needs 4)."""
+    for step_db, n in ((7.5, 34), (10.0, 13), (20.0, 3)):
+        y = constant(600)
+        y[300:, 3:] += step_db
+        out = BandPowerCusum(DT, WEAK).update(y)
+        assert expected_delay(step_db, WEAK, DT) == n
+        np.testing.assert_array_equal(np.flatnonzero(out.slip), [300 + n - 1])
+        assert out.alarm[300 + n - 1, 1] and not out.alarm[:, 0].any()
+    y = constant(600)
+    y[300:, 3:] += 7.5
+    assert not BandPowerCusum(DT, CusumParams(drift=8.0, threshold=0.05)).update(y).slip.any()
+    assert expected_delay(5.9, WEAK, DT) == math.inf
+
+
+def test_the_weak_change_test_needs_every_channel_of_its_finger():
+    """With one channel of the right finger unusable, a 7.5 dB step there is not heard (the
+    weak test's spread grows as fewer channels are pooled); a 20 dB step still is, by the
+    test, after its own delay."""
+    for step_db, heard in ((7.5, False), (20.0, True)):
+        y = constant(600)
+        y[300:, 3:] += step_db
+        y[:, 4] = np.nan
+        out = BandPowerCusum(DT, WEAK).update(y)
+        assert out.slip.any() == heard
+        if heard:
+            n = expected_delay(step_db, CusumParams(drift=8.0, threshold=0.05), DT)
+            assert np.flatnonzero(out.slip)[0] == 300 + n - 1
+
+
+def test_quiet_channels_never_alarm_through_the_weak_change_test():
+    rng = np.random.default_rng(2)
+    y = LEVEL + rng.standard_normal((200_000, 6))        # 1 dB spread, 400 s
+    out = BandPowerCusum(DT, replace(WEAK, single_offset=4.0)).update(y)
+    assert not out.slip.any()
+
+
 def test_parameters_are_validated():
     for bad in (dict(drift=0.0), dict(threshold=-1.0), dict(margin=math.nan),
                 dict(clear_time=-0.1), dict(level_tau=math.inf), dict(single_offset=-1.0),
-                dict(single_offset=math.nan)):
+                dict(single_offset=math.nan), dict(weak_threshold=0.0),
+                dict(weak_threshold=math.nan), dict(weak_drift=0.0),
+                dict(drift=6.0, weak_drift=6.0, weak_threshold=0.1)):
         with pytest.raises(ValueError):
             CusumParams(**bad).validate()
     with pytest.raises(ValueError):
