@@ -26,9 +26,11 @@ third.
 the drift, so the first alarm waits ``h / (D - k)``, and a slip under 8 dB is never heard.
 Beside the CUSUM runs the weak-slip test (:data:`WEAK_DRIFT` 6 dB, :data:`WEAK_THRESHOLD`
 0.1 dB s; :class:`~forte_perception.slip.cusum.CusumParams`, "Two drifts"), on fingers with
-all three channels usable; its alarms meet the same vetoes. Chosen on the tune part of the slip
-set (docs/perception.md): a lower drift or threshold (5 dB / 0.15, 4 dB / 0.4) made false
-alarms on sub-LSB quiet holds.
+all three channels usable and whose loudest channel has a fast band amplitude ``sqrt(2 P)``
+of at least ``weak_least`` (1 LSB: below it a median-filtered channel near a code step
+flickers by one code, which moves its excess 7-10 dB); its alarms meet the same vetoes.
+Chosen on the tune part of the slip set (docs/perception.md): a lower drift or threshold
+(5 dB / 0.15, 4 dB / 0.4) made false alarms on sub-LSB quiet holds.
 
 **What else raises the fast power, and the vetoes** (asked at every alarm; a vetoed alarm
 restarts ``S``):
