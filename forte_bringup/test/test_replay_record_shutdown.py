@@ -60,8 +60,11 @@ def test_bag_replay_node_stops_cleanly_mid_replay(long_bag, signum, rate):
     with Probe('replay_shutdown_probe') as probe:
         probe.count(TactileFrames, 'tactile/frames',
                     RELIABLE if reliable else qos_profile_sensor_data)
+        # the replay starts once the probe has matched: flat out, the 30000 messages take
+        # about 2 s, less than a loaded machine may need to discover the probe
         command = ['bag_replay_node', *ros_args(bag_path=str(long_bag), rate=rate,
-                                                reliable=reliable, start_delay=0.0)]
+                                                reliable=reliable, start_delay=0.0,
+                                                wait_for_subscribers=1)]
         with NodeProcess(command) as process:
             assert wait_until(lambda: probe.counts['tactile/frames'] >= 20, 40.0), \
                 process.output
