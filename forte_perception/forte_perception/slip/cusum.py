@@ -325,19 +325,20 @@ class BandPowerCusum:
         """
         y = np.asarray(psd_db, np.float64).reshape(-1, N_CHANNELS)
         m = y.shape[0]
-        self._weak_allowed = None if weak is None else np.asarray(weak, bool).reshape(m, 2)
+        allowed = None if weak is None else np.asarray(weak, bool).reshape(m, 2)
         out = CusumResult(np.full((m, 2), np.nan), np.full((m, 2), np.nan),
                           np.zeros((m, 2), bool), np.zeros((m, 2), bool), np.zeros(m, bool))
         pos = 0
         while pos < m:  # segments of constant quiet levels, up to a block's end
             stop = self._levels.segment_stop(pos, m)
-            self._segment(y, pos, stop, out, veto)
+            self._segment(y, pos, stop, out, veto,
+                          None if allowed is None else allowed[pos:stop])
             pos = stop
         return out
 
     # -- one stretch of updates with constant levels
     def _segment(self, y: np.ndarray, lo: int, hi: int, out: CusumResult,
-                 veto: Callable[[int], bool] | None) -> None:
+                 veto: Callable[[int], bool] | None, allowed: np.ndarray | None) -> None:
         seg = y[lo:hi]
         level = self._levels.level
         z = seg - level  # NaN where the channel is unusable or has no level yet
@@ -348,15 +349,15 @@ class BandPowerCusum:
         weak = None
         if self.params.weak:  # only fingers with every channel usable
             whole = np.isfinite(z[:, FINGER_INDEX]).all(axis=2)
-            if self._weak_allowed is not None:
-                whole &= self._weak_allowed[lo:hi]
+            if allowed is not None:  # (hi - lo, 2): where the caller lets it listen
+                whole &= allowed
             weak = np.where(whole, (excess - self.params.weak_drift) * self.dt, 0.0)
         quiet = np.zeros(seg.shape, bool)
         if not self._quiet_run(x, weak, out.statistic[lo:hi], quiet):
             for f, finger in enumerate(self._fingers):
-                s, slipping, alarm = self._run(
-                    finger, (x[:, f], None if weak is None else weak[:, f]), excess[:, f],
-                    lo, veto, out)
+                s, slipping, alarm = self._run(finger, x[:, f],
+                                               None if weak is None else weak[:, f],
+                                               excess[:, f], lo, veto, out)
                 out.statistic[lo:hi, f] = s
                 out.slipping[lo:hi, f] = slipping
                 out.alarm[lo:hi, f] = alarm
@@ -391,13 +392,12 @@ class BandPowerCusum:
             finger.c, finger.m = float(c[-1, f]), float(mins[-1, f])
         return True
 
-    def _run(self, finger: _Finger, x: tuple[np.ndarray, np.ndarray | None], zbar: np.ndarray,
+    def _run(self, finger: _Finger, x: np.ndarray, weak: np.ndarray | None, zbar: np.ndarray,
              offset: int, veto: Callable[[int], bool] | None, out: CusumResult
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The state machine of one finger over one segment: CUSUM (closed form) until an
-        alarm of either test (``x``: the increments of the test and of the weak-change test,
-        or None), slipping until cleared, again."""
-        x, weak = x
+        alarm of either test (``x``, ``weak``: the increments of the test and of the
+        weak-change test, or None), slipping until cleared, again."""
         n = x.size
         s = np.full(n, np.nan)
         slipping = np.zeros(n, bool)

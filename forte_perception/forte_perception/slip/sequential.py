@@ -293,6 +293,8 @@ class SequentialDetector:
         # median spacing of the alternations: half a period of the upper to the lower edge
         self._ring_spacing = (fs / (2.0 * band[1]), fs / (2.0 * band[0]))
         self._ring_rest = sosfilt_zi(self._low.sos)
+        least = 0.5 * (self.params.weak_least * QUANTUM) ** 2  # [power] of sqrt(2 P) = least
+        self._weak_least_db = 10.0 * math.log10(least) if least > 0 else -math.inf
         if self._ring_window > 2 * int(self.params.shift_length):
             raise ValueError(f'one period of {band[0]} Hz ({self._ring_window} samples) must '
                              f'fit the level-shift spans (2 x {self.params.shift_length})')
@@ -374,9 +376,7 @@ class SequentialDetector:
     def _audible(self, low: np.ndarray) -> np.ndarray:
         """Fingers (m, 2) whose loudest channel's fast band amplitude ``sqrt(2 P)`` (``low``
         (m, 6) [dB]; NaN: unusable) reaches ``weak_least``: where the weak-slip test listens."""
-        least = 0.5 * (self.params.weak_least * QUANTUM) ** 2
-        least = 10.0 * math.log10(least) if least > 0 else -math.inf
-        return np.fmax.reduce(low[:, FINGER_INDEX], axis=2) >= least
+        return np.fmax.reduce(low[:, FINGER_INDEX], axis=2) >= self._weak_least_db
 
     def _before_gates(self, low: np.ndarray, gated: np.ndarray | None) -> np.ndarray:
         """Per update (m, 6) [dB]: the fast power ``low`` at the update before the latest
