@@ -100,6 +100,8 @@ from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
 
 #: The finger of each channel, (6,).
 _CHANNEL_FINGER = np.argsort(FINGER_INDEX.ravel()) // FINGER_INDEX.shape[1]
+#: Segments of at most this many updates take the scalar quiet path (a 20-sample chunk: 5).
+_SCALAR_UPDATES = 16
 
 __all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'expected_delay', 'pooled_excess']
 
@@ -193,10 +195,15 @@ def pooled_excess(z: np.ndarray, single_offset: float) -> np.ndarray:
     ndarray, shape (m, 2)
         [dB]; NaN where a finger has no usable channel.
     """
+    grouped = z[:, FINGER_INDEX]  # (m, 2, 3)
+    if np.isfinite(grouped).all():  # the common case: the same sums without the masking
+        mean = grouped.sum(axis=2) / grouped.shape[2]
+        if not math.isfinite(single_offset):
+            return mean
+        return np.fmax(mean, grouped.max(axis=2) - single_offset)
     mean = finger_means(z)
     if not math.isfinite(single_offset):
         return mean
-    grouped = z[:, FINGER_INDEX]  # (m, 2, 3)
     # fmax skips NaN (NaN only where all are): the largest usable channel per finger
     largest = np.fmax.reduce(np.where(np.isfinite(grouped), grouped, np.nan), axis=2)
     return np.fmax(mean, largest - single_offset)
@@ -342,16 +349,23 @@ class BandPowerCusum:
         seg = y[lo:hi]
         level = self._levels.level
         z = seg - level  # NaN where the channel is unusable or has no level yet
-        out.active[lo:hi] = np.isfinite(z).any(axis=1) | np.isfinite(level).any()
+        finite = np.isfinite(z)
+        everywhere = bool(finite.all())  # the common case: every channel usable, with a level
+        out.active[lo:hi] = True if everywhere else (finite.any(axis=1)
+                                                     | np.isfinite(level).any())
         excess = pooled_excess(z, self.params.single_offset)  # NaN: no usable channel
         out.excess[lo:hi] = excess
-        x = np.where(np.isnan(excess), 0.0, (excess - self.params.drift) * self.dt)  # (n, 2)
+        x = (excess - self.params.drift) * self.dt  # (n, 2)
+        if not everywhere:
+            x = np.where(np.isnan(excess), 0.0, x)
         weak = None
         if self.params.weak:  # only fingers with every channel usable
-            whole = np.isfinite(z[:, FINGER_INDEX]).all(axis=2)
+            weak = (excess - self.params.weak_drift) * self.dt
+            whole = None if everywhere else finite[:, FINGER_INDEX].all(axis=2)
             if allowed is not None:  # (hi - lo, 2): where the caller lets it listen
-                whole &= allowed
-            weak = np.where(whole, (excess - self.params.weak_drift) * self.dt, 0.0)
+                whole = allowed if whole is None else whole & allowed
+            if whole is not None:
+                weak = np.where(whole, weak, 0.0)
         quiet = np.zeros(seg.shape, bool)
         if not self._quiet_run(x, weak, out.statistic[lo:hi], quiet):
             for f, finger in enumerate(self._fingers):
@@ -376,6 +390,8 @@ class BandPowerCusum:
         fingers = self._fingers
         if any(finger.slipping for finger in fingers):
             return False
+        if x.shape[0] <= _SCALAR_UPDATES:
+            return self._quiet_scalar(x, weak, statistic, quiet)
         c, mins, stat = _lindley(x, [f.c for f in fingers], [f.m for f in fingers])
         if (stat > self.params.threshold).any():
             return False
@@ -390,6 +406,36 @@ class BandPowerCusum:
         quiet[:] = (stat == 0.0)[:, _CHANNEL_FINGER]
         for f, finger in enumerate(fingers):
             finger.c, finger.m = float(c[-1, f]), float(mins[-1, f])
+        return True
+
+    def _quiet_scalar(self, x: np.ndarray, weak: np.ndarray | None, statistic: np.ndarray,
+                      quiet: np.ndarray) -> bool:
+        """:meth:`_quiet_run` for a few updates in Python floats: the additions and minima of
+        :func:`_lindley` in the same order, so the same sums bit for bit, without a dozen
+        array operations on a (5, 2) array."""
+        fingers = self._fingers
+        tests = [(x.tolist(), self.params.threshold, [(f.c, f.m) for f in fingers])]
+        if weak is not None:
+            tests.append((weak.tolist(), self.params.weak_threshold, [f.weak for f in fingers]))
+        results = []  # per test: S (n, 2) as lists, and the carried (C, M) per finger
+        for rows, threshold, start in tests:
+            stat, ends = [[0.0] * len(fingers) for _ in rows], []
+            for f, (c, m) in enumerate(start):
+                for t, row in enumerate(rows):
+                    c += row[f]
+                    m = min(m, c)
+                    stat[t][f] = c - m
+                    if stat[t][f] > threshold:
+                        return False  # an alarm: the state machine takes the segment
+                ends.append((c, m))
+            results.append((stat, ends))
+        first = np.array(results[0][0])
+        statistic[:] = first
+        quiet[:] = (first == 0.0)[:, _CHANNEL_FINGER]
+        for f, finger in enumerate(fingers):
+            finger.c, finger.m = results[0][1][f]
+            if weak is not None:
+                finger.weak = results[1][1][f]
         return True
 
     def _run(self, finger: _Finger, x: np.ndarray, weak: np.ndarray | None, zbar: np.ndarray,

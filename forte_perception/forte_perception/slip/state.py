@@ -228,19 +228,31 @@ class BandPower:
         keep = max(self._windows) - 1
         self._squares = ext[-keep:]
         rel = np.asarray(ends, int) - (first - (ext.shape[0] - x.shape[0]))
-        return [self._window_power(ext, rel, w) for w in self._windows]
+        return self._window_powers(ext, rel)
 
-    def _window_power(self, ext: np.ndarray, rel: np.ndarray, window: int) -> np.ndarray:
-        power = np.empty((rel.size, N_CHANNELS))
-        full = rel >= window - 1
-        if full.any():  # each window gathered contiguously: its sum is its own reduction
-            view = sliding_window_view(ext, window, axis=0)  # (k, 6, window)
-            block = np.ascontiguousarray(view[rel[full] - window + 1])
-            power[full] = block.sum(axis=2) / window
-        for i in np.flatnonzero(~full):  # the first window - 1 samples after a reset
-            block = np.ascontiguousarray(ext[:rel[i] + 1].T)
-            power[i] = block.sum(axis=1) / (rel[i] + 1)
-        return 10.0 * np.log10(power + self._floor)
+    def _window_powers(self, ext: np.ndarray, rel: np.ndarray) -> list[np.ndarray]:
+        """The power [dB] (m, 6) of each window ending at the rows ``rel`` (m,) of ``ext``.
+
+        Each window is summed as its own contiguous run of samples, so any chunking gives the
+        batch result bit for bit. Where the longest window is full, one gather of it serves
+        every window (a shorter window is the tail of each gathered run: the same sums)."""
+        longest = max(self._windows)
+        full = rel >= longest - 1
+        block = None
+        if full.any():
+            view = sliding_window_view(ext, longest, axis=0)  # (k, 6, longest)
+            block = np.ascontiguousarray(view[rel[full] - longest + 1])
+        out = []
+        for window in self._windows:
+            power = np.empty((rel.size, N_CHANNELS))
+            if block is not None:
+                power[full] = block[:, :, longest - window:].sum(axis=2) / window
+            for i in np.flatnonzero(~full):  # the first longest - 1 samples after a reset
+                length = min(window, rel[i] + 1)
+                run = np.ascontiguousarray(ext[rel[i] + 1 - length:rel[i] + 1].T)
+                power[i] = run.sum(axis=1) / length
+            out.append(10.0 * np.log10(power + self._floor))
+        return out
 
 
 class QuietLevels:

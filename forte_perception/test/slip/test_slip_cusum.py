@@ -148,6 +148,24 @@ def test_one_channel_alone_is_pooled_at_its_excess_less_the_offset():
                                                        [np.nan, -1.0]])
 
 
+@pytest.mark.parametrize('offset', [math.inf, 4.0])
+def test_every_channel_usable_pools_as_the_masked_rule_bit_for_bit(offset):
+    """Rows whose six channels are all finite take a path without masking; it must give the
+    masked rule's numbers exactly (mean of the usable channels, largest less the offset),
+    whatever the magnitudes, or chunks with a NaN elsewhere would pool differently."""
+    rng = np.random.default_rng(11)
+    for scale in (1e-3, 1.0, 30.0, 1e4):
+        z = scale * rng.standard_normal((400, 6))
+        masked = z.copy()
+        masked[-1] = np.nan                              # the last row forces the masked rule
+        got = pooled_excess(z, offset)
+        want = pooled_excess(masked, offset)[:-1]
+        assert np.array_equal(got[:-1], want)
+        grouped = z[:, [[0, 1, 2], [3, 4, 5]]]
+        np.testing.assert_allclose(got, np.fmax(grouped.mean(axis=2),
+                                                grouped.max(axis=2) - offset), rtol=1e-12)
+
+
 def test_a_step_on_one_channel_alarms_only_with_the_single_channel_route():
     """20 dB on one channel: its finger's mean rises 6.7 dB, under the 8 dB drift, so the
     mean alone never alarms; less a 4 dB offset the channel gives 16 dB, which alarms after
