@@ -9,9 +9,10 @@ skips at import (no launch stack) skips alone, with its reason.
 Usage: ``python tools/run_tests.py [--package NAME ...] [--jobs N] [--burners N]
 [pytest args...]`` from the repository root (``make test-python``). ``--package`` repeats
 (default: every package of ``pytest.ini``'s ``testpaths``); ``--jobs N`` runs N packages at a
-time (default 2, or 1 on a one-core machine): :data:`FIRST` at the runner's priority, the
-others beside it at niceness :data:`BESIDE_NICENESS`, each one's output printed whole when
-it ends (with ``--jobs 1`` straight through); ``--burners N`` runs N CPU-bound processes at
+time (default 2, or 1 on a one-core machine): the packages of :data:`LIVE_GRAPHS` one after
+another at the runner's priority, the others beside them at niceness
+:data:`BESIDE_NICENESS`, each one's output printed whole when it ends (with ``--jobs 1``
+straight through); ``--burners N`` runs N CPU-bound processes at
 normal priority beside the tests, as a motion planner loads a robot's computer: the
 live-graph tests must pass so, docs/testing.md). Prints pytest's own output per package,
 then a line per package (tests and wall time), the slowest tests, every skipped test with
@@ -44,14 +45,15 @@ ROOT = Path(__file__).resolve().parents[1]
 COMPLETED = (0, 1, 5)
 #: How many of the slowest tests the summary lists.
 SLOWEST = 15
-#: Packages started first, in this order, then the others in ``testpaths`` order. The first,
-#: whose live graphs take longest (about 400 s, mostly real-time scenes that leave a core
-#: idle), runs at the runner's priority while the others run beside it; the second-longest
-#: (forte_commissioning, about 290 s) starts beside it at once, so that the short packages
-#: fill the end of the run instead of it ending on a long one.
-FIRST = ('forte_bringup', 'forte_commissioning')
-#: Niceness of the packages run beside the first one: they fill the idle core without
-#: taking it from the first one's real-time graphs.
+#: Packages whose tests are mostly live graphs in real time (the bench twin's 2 kHz sensor
+#: board emulated in Python, the demo's grasps, procedures over the drivers). They run one
+#: after another at the runner's priority, never beside each other: side by side on two
+#: cores, the one at the lower priority starved (frame gaps of up to 0.9 s from the twin's
+#: sensor, servo status packets lost; CI 2026-11-28). The longest (forte_bringup) goes first.
+#: With none of them chosen, the first package chosen takes their place.
+LIVE_GRAPHS = ('forte_bringup', 'forte_commissioning')
+#: Niceness of the packages run beside the live-graph ones: they fill the idle core without
+#: taking it from the real-time graphs.
 BESIDE_NICENESS = 10
 PRINTING = threading.Lock()
 
@@ -240,19 +242,22 @@ def main(arguments: list[str], root: Path = ROOT) -> int:
     if unknown:
         print(f'[tests] unknown package(s) {unknown}; the packages are {sorted(grouped)}')
         return 1
-    order = [name for name in FIRST if name in grouped] + [
-        name for name in grouped if name not in FIRST]
-    chosen = [name for name in order if not options.package or name in options.package]
-    jobs = max(1, min(options.jobs, len(chosen)))
+    chosen = [name for name in grouped if not options.package or name in options.package]
+    live = [name for name in LIVE_GRAPHS if name in chosen] or chosen[:1]
+    beside = [name for name in chosen if name not in live]
+    jobs = max(1, min(options.jobs, len(beside) + 1))
     started = time.monotonic()
     per_package: dict[str, tuple[list[TestResult], float]] = {}
     problems: list[str] = []
     with tempfile.TemporaryDirectory() as folder, cpu_burners(options.burners), \
-            ThreadPoolExecutor(jobs) as pool:
-        futures = {name: pool.submit(
-            run_package, name, grouped[name], pytest_args, Path(folder), root,
-            niceness=BESIDE_NICENESS if index and jobs > 1 else 0, streamed=jobs == 1)
-            for index, name in enumerate(chosen)}
+            ThreadPoolExecutor(1) as live_lane, ThreadPoolExecutor(max(1, jobs - 1)) as lanes:
+        futures = {}
+        for name in live + beside:
+            lane, niceness = ((live_lane, 0) if jobs == 1 or name in live
+                              else (lanes, BESIDE_NICENESS))
+            futures[name] = lane.submit(run_package, name, grouped[name], pytest_args,
+                                        Path(folder), root, niceness=niceness,
+                                        streamed=jobs == 1)
         for name, future in futures.items():
             results, found, seconds = future.result()
             per_package[name] = (results, seconds)

@@ -182,3 +182,33 @@ def test_two_packages_run_side_by_side_the_second_at_lower_priority(tmp_path, ca
     assert code == 0, output
     assert '2 packages in' in output and '(2 at a time)' in output
     assert '[tests] ----- alpha -----' in output and '[tests] ----- beta -----' in output
+
+
+def test_live_graph_packages_run_one_after_another_and_the_others_beside_them(
+        tmp_path, capfd, monkeypatch):
+    # alpha and gamma stand for two live-graph packages: gamma must not start before alpha
+    # has ended, both at the runner's priority; beta runs beside alpha at lower priority
+    meeting = tmp_path / 'meeting'
+    meeting.mkdir()
+    own = os.nice(0)
+    ends = ('import os, time\n'
+            'from pathlib import Path\n'
+            'def test_long_live_graph():\n'
+            f'    assert os.nice(0) == {own}\n'
+            '    time.sleep(1.0)\n'
+            f'    (Path({str(meeting)!r}) / "alpha ended").touch()\n')
+    after = ('import os\n'
+             'from pathlib import Path\n'
+             'def test_starts_after_the_other_live_graphs():\n'
+             f'    assert os.nice(0) == {own}\n'
+             f'    assert (Path({str(meeting)!r}) / "alpha ended").exists()\n')
+    root = workspace(tmp_path, {
+        'alpha': {'test_a_meet.py': rendezvous(meeting, 'alpha', 'beta', own),
+                  'test_b_ends.py': ends},
+        'beta': {'test_meet.py': rendezvous(meeting, 'beta', 'alpha',
+                                            min(19, own + run_tests.BESIDE_NICENESS))},
+        'gamma': {'test_after.py': after}})
+    monkeypatch.setattr(run_tests, 'LIVE_GRAPHS', ('alpha', 'gamma'))
+    code, output = run(root, capfd, '--jobs', '2')
+    assert code == 0, output
+    assert '3 packages in' in output and '(2 at a time)' in output
