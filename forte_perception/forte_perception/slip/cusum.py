@@ -195,17 +195,14 @@ def pooled_excess(z: np.ndarray, single_offset: float) -> np.ndarray:
     ndarray, shape (m, 2)
         [dB]; NaN where a finger has no usable channel.
     """
-    grouped = z[:, FINGER_INDEX]  # (m, 2, 3)
-    if np.isfinite(grouped).all():  # the common case: the same sums without the masking
-        mean = grouped.sum(axis=2) / grouped.shape[2]
-        if not math.isfinite(single_offset):
-            return mean
-        return np.fmax(mean, grouped.max(axis=2) - single_offset)
     mean = finger_means(z)
     if not math.isfinite(single_offset):
         return mean
+    grouped = z[:, FINGER_INDEX]  # (m, 2, 3)
+    usable = np.isfinite(grouped)
     # fmax skips NaN (NaN only where all are): the largest usable channel per finger
-    largest = np.fmax.reduce(np.where(np.isfinite(grouped), grouped, np.nan), axis=2)
+    largest = np.fmax.reduce(grouped if usable.all() else np.where(usable, grouped, np.nan),
+                             axis=2)
     return np.fmax(mean, largest - single_offset)
 
 
