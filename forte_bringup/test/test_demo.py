@@ -20,6 +20,7 @@ from demo_scenes import EXPECTED, GRAPH_RACES, closed_loop_results, mismatches
 from mcap.reader import make_reader
 
 from forte_bringup.demo import DEFAULT_CONTROLLERS, DEFAULT_OBJECTS
+from forte_control.state_machine.controller_params import ControllerParams
 from forte_evaluation.sim_force_model import default_force_model
 
 
@@ -44,10 +45,15 @@ def test_demo_grasps_end_as_the_physics_says_and_the_report_shows_them(tmp_path)
     assert not mismatches(closed_loop)
     assert {key: value for key, value in closed_loop.items() if key not in GRAPH_RACES} == {
         key: value for key, value in graph.items() if key not in GRAPH_RACES}
+    limits = ControllerParams()
     for row in rows:  # the claim comes with its evidence
         if row['outcome'] == 'LIFTED':
             assert 'equal' in row['message'] and 'when set down' in row['message']
-            assert row['lift_height'] == pytest.approx(0.03, abs=0.001)
+            assert f"lifted {row['lift_height']:.4f} m" in row['message']
+            # at least the lift height; beyond it only where slip evidence came in the lift's
+            # last quiet time (the lift goes on, see GraspPhases._lift_on: a loaded CI
+            # machine once ended a lift at 34.7 mm), never beyond the cap
+            assert limits.lift_distance - 1e-9 <= row['lift_height'] <= limits.max_lift_distance
     report = (output / 'report.md').read_text()
     assert '| glass_bottle | ON_OFF | LIFTED | HELD |' in report
     assert '| soda_can | NO_SLIP | NOT_CARRIED | RESTING | 0.0 | yes |' in report
