@@ -20,6 +20,7 @@ from forte_perception.slip.sequential import (
     SequentialDetector,
     SequentialParams,
     alternations,
+    decaying_alternations,
     loudest_of_finger,
 )
 from forte_perception.testing import tightening
@@ -292,16 +293,17 @@ def resonator(shear: np.ndarray, frequency: float, damping: float) -> np.ndarray
 
 
 def sawtooth_slip(x: np.ndarray, channels: slice, ringing: float, share: float,
-                  rate: float = 20.0, duration: float = 0.4, frequency: float = 25.0) -> None:
+                  rate: float = 20.0, duration: float = 0.4, frequency: float = 25.0,
+                  damping: float = 0.1) -> None:
     """Add stick-slip under one finger from ONSET: the contact shear builds at ``rate``
     drops per second and drops (over 2 ms) at each of ``rate`` releases per second, ringing
-    the finger's mode (``frequency``, damping 0.1) with a peak of ``ringing`` LSB; the
+    the finger's mode (``frequency``, ``damping``) with a peak of ``ringing`` LSB; the
     static drop is ``share`` x ``ringing`` LSB."""
     k = np.arange(x.shape[0])
     releases = ONSET + np.arange(0, duration, 1.0 / rate) * FS
     build = rate / FS * np.clip(k - ONSET, 0.0, releases[-1] - ONSET)
     shear = build - sum(np.clip((k - r) / 4.0, 0.0, 1.0) for r in releases)  # in drops
-    vibration = resonator(shear, frequency, 0.1)
+    vibration = resonator(shear, frequency, damping)
     vibration *= ringing / np.abs(vibration).max()
     x[:, channels] += (vibration + share * ringing * shear)[:, None]
 
@@ -321,6 +323,66 @@ def test_a_sawtooth_slip_is_heard_through_the_level_shift_veto(share):
     assert off.vetoed >= 10 and not (slip & (ends < ONSET + 0.15 * FS)).any()
     ends, slip, _ = SequentialDetector(FS, 4).update(x)
     assert slip.any() and ONSET <= ends[slip][0] <= ONSET + 0.1 * FS
+
+
+def one_release(frequency: float, damping: float, share: float) -> np.ndarray:
+    """One release 5 samples into the window (a 2 ms drop of the contact shear): the
+    finger's mode ringing with a peak of 8 LSB, the static drop ``share`` x 8 LSB."""
+    k = np.arange(2 * PERIOD)
+    shear = -np.clip((k - PERIOD - 5) / 4.0, 0.0, 1.0)
+    vibration = resonator(shear, frequency, damping)
+    return with_rest(8.0 * (vibration / np.abs(vibration).max() + share * shear))
+
+
+@pytest.mark.parametrize('damping, share', [(0.2, 1.0), (0.2, 2.0), (0.3, 0.0), (0.3, 1.0)])
+def test_the_decaying_reading_follows_a_damped_mode_the_peak_fraction_misses(damping, share):
+    """A 16 Hz mode at damping 0.2-0.3 keeps 0.37-0.53 of its amplitude per half period,
+    and its static drop adds to the first lobe: within 0.1 s the third lobe falls under half
+    the window's peak, so the peak fraction counts under two alternations. The decaying
+    reading (each lobe at least 0.3 of the one before) counts two, half a period of 16 Hz
+    (62.5 samples) apart, as fast as a mode inside the band (20 to 100 samples)."""
+    x = one_release(16.0, damping, share)
+    count, _, _ = alternations(BAND_PASS, x, PERIOD, 0.5)
+    assert (count < 2).all()
+    count, spacing, _ = decaying_alternations(BAND_PASS, x, PERIOD, np.full(6, 0.5), 0.3)
+    assert (count >= 2).all()
+    assert np.all((spacing >= 62.5 - 1) & (spacing <= 62.5 + 13)), spacing  # heavy damping
+    # moves the crossings of the later, weaker lobes later
+
+
+@pytest.mark.parametrize('rise', [1, 40, 400])
+def test_a_step_or_a_ramp_is_no_decaying_ring(rise):
+    """Through the band-pass a step is one lobe and a ramp two equal lobes (at its start and
+    its end) or a constant: never two alternations, however low the ratio."""
+    k = np.arange(PERIOD)
+    for start in (0, 50, 150):
+        step = np.clip((k - start) / rise, 0.0, 1.0) * 300.0
+        count, spacing, _ = decaying_alternations(BAND_PASS, with_rest(step), PERIOD,
+                                                  np.full(6, 0.5), 0.05)
+        assert (count < 2).all() and np.isinf(spacing).all()
+
+
+def test_the_decaying_reading_takes_no_lobe_under_its_floor():
+    """A ring whose lobes stay under the hysteresis floor makes no lobe at all."""
+    x = one_release(16.0, 0.1, 0.0)
+    count, spacing, peak = decaying_alternations(BAND_PASS, x, PERIOD, np.full(6, 10.0), 0.3)
+    assert (peak < 10.0).all() and not count.any() and np.isinf(spacing).all()
+
+
+@pytest.mark.parametrize('seed', [0, 1, 2])
+def test_stick_slip_on_a_heavily_damped_mode_is_heard_by_the_decaying_reading(seed):
+    """Stick-slip at 8 releases per second on a 20 Hz mode of damping 0.25 whose static
+    drops equal its 8 LSB ringing (the other finger feeling half): the peak-fraction reading
+    never exempts it from the level-shift veto, and the 0.4 s burst goes unheard; with the
+    decaying reading it is heard before the burst's ringing has died (0.5 s)."""
+    x = scene(seed=seed)
+    sawtooth_slip(x, slice(3, 6), 8.0, 1.0, rate=8.0, frequency=20.0, damping=0.25)
+    sawtooth_slip(x, slice(0, 3), 4.0, 1.0, rate=8.0, frequency=20.0, damping=0.25)
+    x = np.round(x) * QUANTUM
+    ends, slip, _ = SequentialDetector(FS, 4, params=SequentialParams(ring_decay=0.0)).update(x)
+    assert not slip.any()
+    ends, slip, _ = SequentialDetector(FS, 4).update(x)
+    assert slip.any() and ONSET <= ends[slip][0] <= ONSET + 0.5 * FS
 
 
 @pytest.mark.parametrize('amplitude', [30.0, 100.0])
