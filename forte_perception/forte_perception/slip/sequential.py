@@ -235,9 +235,21 @@ def alternations(sos: np.ndarray, x: np.ndarray, window: int, fraction: float,
     peak : ndarray (6,)
         Peak magnitude of the band-passed signal in the window [units of ``x``].
     """
+    return alternations_of(band_passed(sos, x, window, unit_rest), fraction)
+
+
+def band_passed(sos: np.ndarray, x: np.ndarray, window: int,
+                unit_rest: np.ndarray | None = None) -> np.ndarray:
+    """The last ``window`` samples of ``x`` (n, 6) through ``sos``, filtered from a state at
+    rest at its first sample (a constant passes as zero); (6, window)."""
     unit_rest = sosfilt_zi(sos) if unit_rest is None else unit_rest
     rest = unit_rest[:, None, :] * x[0][None, :, None]  # (sections, 6, 2)
-    y = sosfilt(sos, np.ascontiguousarray(x.T), axis=-1, zi=rest)[0][:, -window:]  # (6, w)
+    return sosfilt(sos, np.ascontiguousarray(x.T), axis=-1, zi=rest)[0][:, -window:]
+
+
+def alternations_of(y: np.ndarray, fraction: float
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`alternations` of the band-passed window ``y`` (6, w)."""
     peak = np.abs(y).max(axis=1)
     level = fraction * peak[:, None]
     side = (y > level).astype(np.int8) - (y < -level).astype(np.int8)
@@ -291,13 +303,20 @@ def decaying_alternations(sos: np.ndarray, x: np.ndarray, window: int, floor: np
     peak : ndarray (6,)
         Peak magnitude of the band-passed signal in the window [units of ``x``].
     """
-    unit_rest = sosfilt_zi(sos) if unit_rest is None else unit_rest
-    rest = unit_rest[:, None, :] * x[0][None, :, None]  # (sections, 6, 2)
-    y = sosfilt(sos, np.ascontiguousarray(x.T), axis=-1, zi=rest)[0][:, -window:]  # (6, w)
+    return decaying_alternations_of(band_passed(sos, x, window, unit_rest), floor, ratio)
+
+
+def decaying_alternations_of(y: np.ndarray, floor: np.ndarray, ratio: float,
+                             channels: np.ndarray | None = None
+                             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`decaying_alternations` of the band-passed window ``y`` (6, w), read on
+    ``channels`` (6,) bool only (default all; the others count none)."""
     peak = np.abs(y).max(axis=1)
     count = np.zeros(y.shape[0], np.int64)
     spacing = np.full(y.shape[0], np.inf)
-    for channel, signal in enumerate(y):
+    read = np.ones(y.shape[0], bool) if channels is None else channels
+    for channel in np.flatnonzero(read):
+        signal = y[channel]
         side = (signal > floor[channel]).astype(np.int8) - (signal < -floor[channel])
         marks = np.flatnonzero(side)
         if marks.size < 2:
@@ -305,9 +324,9 @@ def decaying_alternations(sos: np.ndarray, x: np.ndarray, window: int, floor: np
         sides = side[marks]
         starts = np.concatenate([[0], np.flatnonzero(sides[1:] != sides[:-1]) + 1])
         bounds = np.append(marks[starts], signal.size)  # each lobe's first sample, the end
-        lobes = [np.abs(signal[bounds[i]:bounds[i + 1]]).max() for i in range(starts.size)]
+        lobes = np.maximum.reduceat(np.abs(signal), bounds[:-1])  # each lobe's magnitude
         first = last = int(np.argmax(lobes))
-        while last + 1 < len(lobes) and lobes[last + 1] >= ratio * lobes[last]:
+        while last + 1 < lobes.size and lobes[last + 1] >= ratio * lobes[last]:
             last += 1
         count[channel] = last - first
         if last - first >= 2:
@@ -507,17 +526,16 @@ class SequentialDetector:
         if not candidates.any():  # NaN: not a candidate
             return candidates
         start = span.shape[0] - self._ring_window - self._ring_window // 2  # half to settle
-        count, spacing, peak = alternations(self._low.sos, span[max(start, 0):],
-                                            self._ring_window, self.params.ring_fraction,
-                                            self._ring_rest)
-        rings = self._ringing(count, spacing, peak)
-        if self.params.ring_decay > 0:
+        y = band_passed(self._low.sos, span[max(start, 0):], self._ring_window,
+                        self._ring_rest)
+        rings = candidates & self._ringing(*alternations_of(y, self.params.ring_fraction))
+        if self.params.ring_decay > 0 and (candidates & ~rings).any():
             quiet = np.sqrt(10.0 ** (self._cusum.level / 10.0))  # quiet band amplitude (rms)
             floor = np.maximum(RING_FLOOR_LSB * QUANTUM, RING_FLOOR_NOISE * quiet)
-            rings |= self._ringing(*decaying_alternations(
-                self._low.sos, span[max(start, 0):], self._ring_window,
-                np.nan_to_num(floor, nan=np.inf), self.params.ring_decay, self._ring_rest))
-        return candidates & rings
+            rings |= candidates & self._ringing(*decaying_alternations_of(
+                y, np.nan_to_num(floor, nan=np.inf), self.params.ring_decay,
+                candidates & ~rings))
+        return rings
 
     def _ringing(self, count: np.ndarray, spacing: np.ndarray, peak: np.ndarray
                  ) -> np.ndarray:
