@@ -251,18 +251,29 @@ def alternations_of(y: np.ndarray, fraction: float
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`alternations` of the band-passed window ``y`` (6, w)."""
     peak = np.abs(y).max(axis=1)
-    level = fraction * peak[:, None]
-    side = (y > level).astype(np.int8) - (y < -level).astype(np.int8)
-    latest = np.where(side != 0, np.arange(y.shape[1])[None, :], -1)  # last side taken
-    np.maximum.accumulate(latest, axis=1, out=latest)
-    held = np.take_along_axis(side, np.maximum(latest, 0), axis=1) * (latest >= 0)
+    held = held_sides(y, fraction * peak)
     switch = (held[:, 1:] != held[:, :-1]) & (held[:, :-1] != 0)
     count = switch.sum(axis=1).astype(np.int64)
     spacing = np.full(y.shape[0], np.inf)
     for c in np.flatnonzero(count >= 2):
-        gaps = np.sort(np.diff(np.flatnonzero(switch[c])))  # the median, without its overhead
-        spacing[c] = 0.5 * float(gaps[(gaps.size - 1) // 2] + gaps[gaps.size // 2])
+        spacing[c] = _median(np.diff(np.flatnonzero(switch[c])))
     return count, spacing, peak
+
+
+def held_sides(y: np.ndarray, level: np.ndarray) -> np.ndarray:
+    """The side (+1 above ``level``, -1 below ``-level``) each channel of ``y`` (6, w) last
+    reached, with hysteresis: 0 until it first leaves +-``level`` (6,); (6, w) int8."""
+    limit = level[:, None]
+    side = (y > limit).astype(np.int8) - (y < -limit).astype(np.int8)
+    latest = np.where(side != 0, np.arange(y.shape[1])[None, :], -1)  # last side taken
+    np.maximum.accumulate(latest, axis=1, out=latest)
+    return np.take_along_axis(side, np.maximum(latest, 0), axis=1) * (latest >= 0)
+
+
+def _median(values: np.ndarray) -> float:
+    """The median of ``values`` (k,), k >= 1, without ``np.median``'s overhead."""
+    ordered = np.sort(values)
+    return 0.5 * float(ordered[(ordered.size - 1) // 2] + ordered[ordered.size // 2])
 
 
 def decaying_alternations(sos: np.ndarray, x: np.ndarray, window: int, floor: np.ndarray,
@@ -315,23 +326,21 @@ def decaying_alternations_of(y: np.ndarray, floor: np.ndarray, ratio: float,
     count = np.zeros(y.shape[0], np.int64)
     spacing = np.full(y.shape[0], np.inf)
     read = np.ones(y.shape[0], bool) if channels is None else channels
+    held = held_sides(y, floor)
     for channel in np.flatnonzero(read):
-        signal = y[channel]
-        side = (signal > floor[channel]).astype(np.int8) - (signal < -floor[channel])
-        marks = np.flatnonzero(side)
-        if marks.size < 2:
+        row = held[channel]
+        begins = np.flatnonzero(row[1:] != row[:-1]) + 1  # each lobe's first sample
+        if row[0] != 0:
+            begins = np.concatenate([[0], begins])
+        if begins.size < 2:  # one lobe at most: no alternation
             continue
-        sides = side[marks]
-        starts = np.concatenate([[0], np.flatnonzero(sides[1:] != sides[:-1]) + 1])
-        bounds = np.append(marks[starts], signal.size)  # each lobe's first sample, the end
-        lobes = np.maximum.reduceat(np.abs(signal), bounds[:-1])  # each lobe's magnitude
+        lobes = np.maximum.reduceat(np.abs(y[channel]), begins)  # each lobe's magnitude
         first = last = int(np.argmax(lobes))
         while last + 1 < lobes.size and lobes[last + 1] >= ratio * lobes[last]:
             last += 1
         count[channel] = last - first
         if last - first >= 2:
-            gaps = np.sort(np.diff(bounds[first + 1:last + 1]))
-            spacing[channel] = 0.5 * float(gaps[(gaps.size - 1) // 2] + gaps[gaps.size // 2])
+            spacing[channel] = _median(np.diff(begins[first + 1:last + 1]))
     return count, spacing, peak
 
 
@@ -529,12 +538,12 @@ class SequentialDetector:
         y = band_passed(self._low.sos, span[max(start, 0):], self._ring_window,
                         self._ring_rest)
         rings = candidates & self._ringing(*alternations_of(y, self.params.ring_fraction))
-        if self.params.ring_decay > 0 and (candidates & ~rings).any():
+        unfound = candidates & ~rings
+        if self.params.ring_decay > 0 and unfound.any():
             quiet = np.sqrt(10.0 ** (self._cusum.level / 10.0))  # quiet band amplitude (rms)
             floor = np.maximum(RING_FLOOR_LSB * QUANTUM, RING_FLOOR_NOISE * quiet)
-            rings |= candidates & self._ringing(*decaying_alternations_of(
-                y, np.nan_to_num(floor, nan=np.inf), self.params.ring_decay,
-                candidates & ~rings))
+            rings |= unfound & self._ringing(*decaying_alternations_of(
+                y, np.nan_to_num(floor, nan=np.inf), self.params.ring_decay, unfound))
         return rings
 
     def _ringing(self, count: np.ndarray, spacing: np.ndarray, peak: np.ndarray
