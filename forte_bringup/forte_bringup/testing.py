@@ -196,6 +196,32 @@ class Watcher(Node):
             time.sleep(0.2)
         return state
 
+    def wait_for_graph_active(self, graph: str, timeout: float) -> dict[str, str | None]:
+        """Wait until every lifecycle node of ``graph`` reports ``active``.
+
+        A test must not end while a transition its launch asked for is still under way:
+        launch_ros calls ``change_state`` from a worker thread, and a launch shut down during
+        that call destroys the client under it (``InvalidHandle``: the launch service then
+        exits 1). Waiting for every lifecycle node of the graph, not only the one the test
+        reads, leaves no transition pending.
+
+        Parameters
+        ----------
+        graph : str
+            A key of :data:`forte_bringup.graph.GRAPHS`.
+        timeout : float
+            Longest wait for each node [s].
+
+        Returns
+        -------
+        dict
+            Node name -> the last state seen (``'active'`` for each node that got there).
+        """
+        from forte_bringup.graph import GRAPHS
+
+        return {spec.name: self.wait_for_lifecycle_state(spec.name, 'active', timeout)
+                for spec in GRAPHS[graph].nodes if spec.lifecycle}
+
     def parameter(self, node: str, name: str, timeout: float = 10.0) -> Any:
         """Value of parameter ``name`` of ``node`` (``/<node>/get_parameters``).
 

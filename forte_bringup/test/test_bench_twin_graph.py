@@ -111,8 +111,8 @@ def test_a_forte_grasp_on_the_bench_twin_holds_the_object(grasp_object: str):
     from forte_msgs.msg import SimGroundTruth
 
     with watching() as watcher:
-        for node in ('serial_sensor', 'gripper_driver'):
-            assert watcher.wait_for_lifecycle_state(node, 'active', UP) == 'active', node
+        states = watcher.wait_for_graph_active('hardware', UP)
+        assert set(states.values()) == {'active'}, states
         assert wait_until(lambda: watcher.counts['tared'] > 20, WAIT), watcher.counts
         assert wait_until(lambda: watcher.counts['joint_states'] > 10, WAIT), watcher.counts
         assert wait_until(lambda: watcher.counts['grasp/state'] >= 1, WAIT), watcher.counts

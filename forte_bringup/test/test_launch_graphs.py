@@ -143,8 +143,8 @@ def hardware_launch(devices: tuple[Path, Path]) -> launch.LaunchDescription:
 @pytest.mark.launch(fixture=hardware_launch)
 def test_hardware_graph_on_emulated_devices():
     with watching() as watcher:
-        for node in ('serial_sensor', 'gripper_driver'):
-            assert watcher.wait_for_lifecycle_state(node, 'active', UP) == 'active', node
+        states = watcher.wait_for_graph_active('hardware', UP)
+        assert set(states.values()) == {'active'}, states
         assert wait_until(lambda: watcher.counts['tactile/frames'] > 50, WAIT), watcher.counts
         assert wait_until(lambda: watcher.counts['joint_states'] > 10, WAIT), watcher.counts
         assert wait_until(lambda: watcher.counts['tactile/state'] > 10, WAIT), watcher.counts

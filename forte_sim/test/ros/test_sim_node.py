@@ -18,6 +18,7 @@ from forte_msgs.msg import SensorInfo, ServoCommand, SimGroundTruth, TactileFram
 from forte_ros.contract import SERVO_TORQUE_CONSTANT
 from forte_ros.qos import COMMANDS, SENSOR_INFO, reliable
 from forte_ros.sensor_identity import SIMULATED_SENSOR, SensorIdentity
+from forte_ros import call_in_executor
 from forte_ros.testing import SpinningGraph, wait_until
 from forte_sim.ros.sim_node import LEFT_JOINT, RIGHT_JOINT, SimNode
 
@@ -47,6 +48,12 @@ class Harness:
     def wait(self, condition, timeout: float = 30.0) -> bool:
         """Poll ``condition`` until true; generous timeout for loaded CI machines."""
         return bool(wait_until(condition, timeout, period=0.02))
+
+    def transition(self, name: str) -> TransitionCallbackReturn:
+        """Run lifecycle transition ``name`` ('configure', 'cleanup', ...) in the executor's
+        thread, as the node's change_state service would: from the test's thread, a cleanup
+        destroys timers and publishers under a spin in progress (InvalidHandle)."""
+        return call_in_executor(self.ros.executor, getattr(self.node, f'trigger_{name}'))
 
     def close(self) -> None:
         self.ros.close()
@@ -205,7 +212,7 @@ def test_bad_parameters_and_commands_are_refused(harness_factory):
 def test_deactivate_pauses_and_activate_resumes_the_stream(harness_factory):
     harness = harness_factory(scene='empty', seed=5, reliable=True)
     assert harness.wait(lambda: len(harness.frames) >= 10)
-    assert harness.node.trigger_deactivate() == TransitionCallbackReturn.SUCCESS
+    assert harness.transition('deactivate') == TransitionCallbackReturn.SUCCESS
     # frames published before the deactivation may still be in flight on a busy machine:
     # wait until the count settles (no frame for 0.5 s), then it must stay put
     paused = -1
@@ -216,7 +223,7 @@ def test_deactivate_pauses_and_activate_resumes_the_stream(harness_factory):
     assert len(harness.frames) == paused, 'frames kept arriving after the deactivation'
     time.sleep(1.0)
     assert len(harness.frames) == paused
-    assert harness.node.trigger_activate() == TransitionCallbackReturn.SUCCESS
+    assert harness.transition('activate') == TransitionCallbackReturn.SUCCESS
     assert harness.wait(lambda: len(harness.frames) >= paused + 10)
     messages = [message for _, message in harness.frames]
     np.testing.assert_array_equal(np.diff([m.first_sequence for m in messages]), 20)
@@ -237,8 +244,8 @@ def test_a_new_scene_after_cleanup_takes_the_new_object(harness_factory):
     harness = harness_factory(scene='grasp', object='apple', seed=4, reliable=True)
     assert harness.wait(lambda: harness.truth)
     assert harness.truth[-1].object_name == 'apple'
-    assert harness.node.trigger_deactivate() == TransitionCallbackReturn.SUCCESS
-    assert harness.node.trigger_cleanup() == TransitionCallbackReturn.SUCCESS
+    assert harness.transition('deactivate') == TransitionCallbackReturn.SUCCESS
+    assert harness.transition('cleanup') == TransitionCallbackReturn.SUCCESS
     results = harness.node.set_parameters([Parameter('object', value='soda_can'),
                                            Parameter('seed', value=13)])
     assert all(result.successful for result in results)
@@ -246,8 +253,8 @@ def test_a_new_scene_after_cleanup_takes_the_new_object(harness_factory):
     # machine: count from when none has arrived for 0.5 s
     assert harness.wait(lambda: _quiet_for(harness, 0.5))
     truths, frames = len(harness.truth), len(harness.frames)
-    assert harness.node.trigger_configure() == TransitionCallbackReturn.SUCCESS
-    assert harness.node.trigger_activate() == TransitionCallbackReturn.SUCCESS
+    assert harness.transition('configure') == TransitionCallbackReturn.SUCCESS
+    assert harness.transition('activate') == TransitionCallbackReturn.SUCCESS
     assert harness.wait(lambda: len(harness.truth) > truths + 5)
     truth = harness.truth[-1]
     assert truth.object_name == 'soda_can' and truth.object_state == 1  # RESTING, a new scene
