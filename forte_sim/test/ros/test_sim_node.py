@@ -15,10 +15,10 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from forte_msgs.msg import SensorInfo, ServoCommand, SimGroundTruth, TactileFrames
+from forte_ros import call_in_executor
 from forte_ros.contract import SERVO_TORQUE_CONSTANT
 from forte_ros.qos import COMMANDS, SENSOR_INFO, reliable
 from forte_ros.sensor_identity import SIMULATED_SENSOR, SensorIdentity
-from forte_ros import call_in_executor
 from forte_ros.testing import SpinningGraph, wait_until
 from forte_sim.ros.sim_node import LEFT_JOINT, RIGHT_JOINT, SimNode
 
