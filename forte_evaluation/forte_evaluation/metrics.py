@@ -96,6 +96,10 @@ class TrialRecord:
     onset_cues : list of (int, str)
         Per true slip onset: its ``SimGroundTruth`` ``SLIP_*`` type and the cue that found it
         first within the latency horizon (:data:`CUES`).
+    either_cue_latencies : list of float
+        Per true slip onset that either cue found within the latency horizon: time from
+        onset to the first slip flag or gross-slip tightening, whichever came first [s]
+        (the controller acts on both).
     max_true_force : float
         Largest true per-finger normal force during the trial [N] (NaN if unknown).
     duration : float
@@ -114,6 +118,7 @@ class TrialRecord:
     latencies: list[float] = field(default_factory=list)
     missed_onsets: int = 0
     onset_cues: list[tuple[int, str]] = field(default_factory=list)
+    either_cue_latencies: list[float] = field(default_factory=list)
     max_true_force: float = float('nan')
     duration: float = float('nan')
     object_state_at_outcome: str = ''

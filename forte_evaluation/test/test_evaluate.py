@@ -146,7 +146,12 @@ def test_each_onset_gets_the_cue_that_found_it_first():
             for cells in [[c.strip() for c in line.strip('|').split('|')]]}
     assert rows['all'] == ['4', '2', '1', '1'] and rows['stick-slip'] == ['1', '1', '0', '0']
     assert list(rows) == ['incipient', 'gross', 'stick-slip', 'all']
-    assert record_from_result({}, Task('pocky_box', 'slippery', 'FORTE', 0, 0)).onset_cues == []
+    # onset to the first of either cue, in time order: 1.0 by the tightening at 1.20, 3.0 at
+    # 3.10 (both), 5.0 by the flag at 5.05; 7.0 by neither
+    assert record.either_cue_latencies == pytest.approx([0.20, 0.10, 0.05])
+    assert record.latencies == pytest.approx([0.30, 0.10, 0.05])
+    nothing = record_from_result({}, Task('pocky_box', 'slippery', 'FORTE', 0, 0))
+    assert nothing.onset_cues == [] and nothing.either_cue_latencies == []
     with pytest.raises(ValueError, match='2 slip onset times but 1 onset types'):
         record_from_result({'slip_onset_times': [1.0, 2.0], 'slip_onset_types': [3]},
                            Task('pocky_box', 'slippery', 'FORTE', 0, 0))
@@ -205,7 +210,12 @@ def test_quick_evaluation_end_to_end(tmp_path, capsys):
     for mode, entry in data['by_slip_mode'].items():
         assert len(entry['trials']) == 24
         assert {trial['slip_mode'] for trial in entry['trials']} == {mode}
+        # either cue finds at least the onsets the flags find, each no later
+        vibration, either = entry['slip_latency'], entry['slip_latency_either_cue']
+        assert either['count'] >= vibration['count']
+        assert either['count'] + either['missed'] == vibration['count'] + vibration['missed']
     assert data['trials'] == data['by_slip_mode']['sequential']['trials']
+    assert 'first slip flag or gross-slip tightening' in printed
     assert 'FORTE in each slip detector mode' in printed
     assert 'FORTE (sequential)' in printed and 'Prec. (paper)' in printed
 
