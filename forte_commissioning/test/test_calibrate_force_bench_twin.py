@@ -25,6 +25,10 @@ from forte_sim import make_scene
 INDENTOR = 'flat_wide'
 #: No frame for this long (wall) is a stale sensor: generous, other jobs share the machine.
 STALE = 2.0
+#: Attempts per trial. A starved machine loses frames between the twin's board and the
+#: reader (a landing CI run: gaps of 700-1300 samples in three attempts in a row); the
+#: procedure drops such a recording and repeats it, as it would on a lab's loaded PC.
+ATTEMPTS = 6
 
 
 def _log_tails(folder, lines: int = 15) -> str:
@@ -47,6 +51,7 @@ def test_the_procedure_calibrates_on_the_bench_twin_through_the_real_drivers(tmp
             with NodeProcess(['forte_calibrate_force', *ros_args(
                     session_dir=str(session), quick=True, trials_per_indentor=2,
                     indentors=[INDENTOR], frames_reliable=True, stale_timeout=STALE,
+                    max_attempts=ATTEMPTS,
                     ready_timeout=60.0, auto_continue=True, auto_continue_delay=0.0)]) as run:
                 deadline = time.monotonic() + 300.0
                 while run.process.poll() is None and time.monotonic() < deadline:
