@@ -138,7 +138,7 @@ def record_from_result(result: object, task: Task) -> TrialRecord:
                                    CLOSED_LOOP_MAX_LATENCY, before_next_onset=True)
     cues = [(int(k), first_cue(float(v), float(g)))
             for k, v, g in zip(kinds, latency, by_lift_monitor)]
-    either = np.fmin(latency, by_lift_monitor) if onsets else np.zeros(0)
+    either = np.fmin(latency, by_lift_monitor)  # per onset: the sooner cue (NaN: neither)
     outcome = _get(result, 'outcome', '')
     state = _get(result, 'object_state', '')
     at_outcome = _get(result, 'object_state_at_outcome', '') or ''

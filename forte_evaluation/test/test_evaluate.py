@@ -210,7 +210,7 @@ def test_quick_evaluation_end_to_end(tmp_path, capsys):
     for mode, entry in data['by_slip_mode'].items():
         assert len(entry['trials']) == 24
         assert {trial['slip_mode'] for trial in entry['trials']} == {mode}
-        # either cue finds at least the onsets the flags find, each no later
+        # either cue finds at least the onsets the flags find, out of the same onsets
         vibration, either = entry['slip_latency'], entry['slip_latency_either_cue']
         assert either['count'] >= vibration['count']
         assert either['count'] + either['missed'] == vibration['count'] + vibration['missed']
