@@ -89,9 +89,19 @@ def benchmark_objects(quick: bool) -> list[tuple[str, str]]:
 def make_tasks(objects: Sequence[tuple[str, str]], controllers: Sequence[str], trials: int,
                seed: int) -> list[Task]:
     """Every (object, controller, trial); the seed depends on object and trial only, so the
-    three controllers face the same placement, material spread and noise in a trial."""
+    three controllers face the same placement, material spread and noise in a trial.
+
+    The scene seed of trial ``t`` of an object is ``seed + 1000 i + t``, with ``i`` the
+    object's place in the full benchmark (:func:`benchmark_objects`), not in ``objects``: a
+    run of some objects (``--objects``, ``--quick``) repeats the full run's trials of them.
+    Two base seeds fewer than ``trials`` apart share trials (seeds 0 and 1 share 9 of 10).
+    """
+    catalogue = [name for name, _ in benchmark_objects(quick=False)]
     tasks = []
-    for object_index, (name, category) in enumerate(objects):
+    for name, category in objects:
+        if name not in catalogue:
+            raise ValueError(f'{name!r} is not an object of the benchmark: {catalogue}')
+        object_index = catalogue.index(name)
         for trial in range(trials):
             trial_seed = seed + 1000 * object_index + trial
             tasks += [Task(name, category, controller, trial, trial_seed)
@@ -155,6 +165,7 @@ def record_from_result(result: object, task: Task) -> TrialRecord:
         duration=float(_get(result, 'duration', math.nan)),
         object_state_at_outcome=str(getattr(at_outcome, 'name', at_outcome)),
         final_height=float(_get(result, 'final_height', math.nan)),
+        seed=task.seed,
     )
 
 
@@ -254,7 +265,10 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument('--controllers', nargs='+', default=list(CONTROLLERS),
                         choices=CONTROLLERS)
     parser.add_argument('--jobs', type=int, default=os.cpu_count() or 1)
-    parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--seed', type=int, default=0,
+                        help='base seed: trial t of the i-th object of the full benchmark runs '
+                             'scene seed SEED + 1000 i + t (seeds fewer than --trials apart '
+                             'share trials)')
     parser.add_argument('--slip-modes', nargs='+', default=[RECOMMENDED_MODE, 'paper'],
                         choices=SLIP_MODES,
                         help=f"slip detector modes to run (default {RECOMMENDED_MODE} and "

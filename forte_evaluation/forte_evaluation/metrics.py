@@ -104,6 +104,9 @@ class TrialRecord:
         Largest true per-finger normal force during the trial [N] (NaN if unknown).
     duration : float
         Trial length [s].
+    seed : int or None
+        Scene seed of the trial (``forte_evaluation.closed_loop.run_trial``'s ``seed``, with
+        ``trial``, reruns it); None if unknown.
     """
 
     object_name: str
@@ -123,6 +126,7 @@ class TrialRecord:
     duration: float = float('nan')
     object_state_at_outcome: str = ''
     final_height: float = float('nan')
+    seed: int | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary."""

@@ -49,6 +49,21 @@ def test_tasks_share_seeds_across_controllers():
     assert len({next(iter(s)) for s in by_trial.values()}) == 6  # different across trials
 
 
+def test_a_run_of_some_objects_repeats_the_full_runs_trials_of_them():
+    full = make_tasks(benchmark_objects(quick=False), ['FORTE'], trials=10, seed=900)
+    some = make_tasks([('pocky_box', 'slippery'), ('raw_egg', 'fragile_rigid')], ['FORTE'],
+                      trials=10, seed=900)
+    seeds = {(task.object_name, task.trial): task.seed for task in full}
+    assert all(task.seed == seeds[task.object_name, task.trial] for task in some)
+    quick = make_tasks(benchmark_objects(quick=True), ['FORTE'], trials=2, seed=0)
+    assert all(task.seed == seeds[task.object_name, task.trial] - 900 for task in quick)
+    assert len({task.seed for task in full}) == 310  # no two trials share a scene
+    with pytest.raises(ValueError, match='not an object of the benchmark'):
+        make_tasks([('teapot', 'everyday')], ['FORTE'], trials=1, seed=0)
+    record = record_from_result({'success': True}, some[3])
+    assert record.to_dict()['seed'] == some[3].seed == 900 + 1000 * 20 + 3  # rerun it alone
+
+
 def fake_runner(task: Task) -> TrialRecord:
     """Deterministic stand-in: FORTE lifts everything, NO_SLIP only trial 0, ON_OFF never."""
     success = {'FORTE': True, 'NO_SLIP': task.trial == 0, 'ON_OFF': False}[task.controller]
