@@ -209,14 +209,15 @@ class SlidingOffWorld:
 def test_forte_stops_the_lift_while_the_contact_slides_off_and_tightens():
     """The contact keeps sliding while the arm lifts, so FORTE tightens on beyond the lift
     height: each tightening means the object slid, and it hangs only as high as the lift
-    since. The lift goes on quiet_time (1 s = 5 mm) past the last one, and the set-down probe
-    lowers probe_distance (2 mm) from there: 3 mm of lift since, within a control step."""
+    since. The lift goes on quiet_time (1 s = 5 mm) and probe_distance (2 mm) past the last
+    one, and the set-down probe lowers the 2 mm from there: 5 mm of lift since, within a
+    control step."""
     world = SlidingOffWorld()
     out, tightened, paused = world.run()
     assert tightened >= 2 and paused >= tightened
     assert out.outcome == Outcome.LIFTED, out.message
     check, params = LiftCheckParams(), state_machine.ControllerParams()
-    since = check.quiet_time * params.lift_speed - check.probe_distance
+    since = check.quiet_time * params.lift_speed
     assert world.tightened_at[-1] > 0.03
     assert out.lift_height - world.tightened_at[-1] == pytest.approx(since, abs=1e-4)
 

@@ -200,15 +200,16 @@ def test_a_late_tightening_lifts_on_so_the_probe_cannot_set_the_object_down(slip
     """Closed loop, seed 0: a Pringles can and a metal bottle slid onto the table near the
     lift height, were tightened on there and lifted 1.6-1.9 mm to the top; the 2 mm set-down
     probe then lowered them back onto the table and LIFTED was claimed. Now the arm goes on
-    quiet_time of lift (5 mm) past the tightening: the probe leaves 3 mm under the object
-    (within a control step), and the slip is over 1 s before the end of the lift (rule 2)."""
+    quiet_time of lift (5 mm) and the probe's 2 mm past the tightening: the probe leaves the
+    whole 5 mm under the object (within a control step), and the slip is over 1 s before the
+    end of the lift (rule 2)."""
     out, tightened_at, heights = LateSlipWorld(slip_at).run()
     check = LiftCheckParams()
-    clearance = check.quiet_time * LIFT_SPEED - check.probe_distance
+    clearance = check.quiet_time * LIFT_SPEED
     assert tightened_at >= slip_at
     assert out.outcome == Outcome.LIFTED, out.message
     top = heights.index(max(heights))
-    assert heights[top] == pytest.approx(check.quiet_time * LIFT_SPEED, abs=1e-4)
+    assert heights[top] == pytest.approx(clearance + check.probe_distance, abs=1e-4)
     assert min(heights[top:]) == pytest.approx(clearance, abs=1e-4)
     assert out.lift_height == pytest.approx(tightened_at + clearance, abs=1e-4)
 
@@ -217,11 +218,12 @@ def test_a_late_slip_flag_lifts_on_until_the_lift_ends_quiet():
     """W/o Slip does not tighten; its slip flag 0.4 mm before the lift height would fall
     into the lift's last quiet_time (rule 2: the fingers still slide). The lift goes on
     until quiet_time of lift has passed since the flag: the object is judged by a lift that
-    ends quiet (LIFTED), 5 mm past the flag and then 2 mm lower after the probe."""
+    ends quiet (LIFTED), 5 mm and the probe's 2 mm past the flag, and the probe brings it
+    back to 5 mm past the flag."""
     world = LateSlipWorld(0.0316, Controller.NO_SLIP)
     out, tightened_at, _ = world.run()
     check = LiftCheckParams()
     assert math.isnan(tightened_at) and out.slip_events == 0
     assert out.outcome == Outcome.LIFTED, out.message
     assert out.lift_height == pytest.approx(
-        world.flagged_at + check.quiet_time * LIFT_SPEED - check.probe_distance, abs=1e-4)
+        world.flagged_at + check.quiet_time * LIFT_SPEED, abs=1e-4)

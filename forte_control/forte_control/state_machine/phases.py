@@ -388,11 +388,15 @@ class GraspPhases:
         since (closed loop, seed 0: a Pringles can and a metal bottle slid onto the table 2 mm
         before the lift height, were tightened on there and lifted 1.6-1.9 mm; the set-down
         probe then lowered them back onto the table, and LIFTED was claimed). So the lift
-        target moves up until ``quiet_time`` of lift has passed since the last tightening
-        (within ``max_lift_distance``); the probe then starts from there. The slip flags of
-        the lift count too, so that the lift ends as rule 2 of the verdict wants it (the flags
-        that follow a tightening would otherwise fall into its last ``quiet_time``). Returns
-        True while the arm has to go on up (the caller lifts, or waits for a regrip).
+        target moves up until ``quiet_time`` of lift has passed since the last tightening,
+        plus the probe's depth (as ``lift_target`` is ``lift_distance`` plus it), within
+        ``max_lift_distance``; the probe then starts from there and leaves the object
+        ``quiet_time`` of lift above where it was caught (without the probe's depth it left
+        3 mm: a soda can and a metal bottle of seed 0 ended held 3.1-3.6 mm up). The slip
+        flags of the lift count too, so that the lift ends as rule 2 of the verdict wants it
+        (the flags that follow a tightening would otherwise fall into its last
+        ``quiet_time``). Returns True while the arm has to go on up (the caller lifts, or
+        waits for a regrip).
         """
         grasp = self._grasp
         assert grasp is not None and grasp.lift is not None
@@ -401,7 +405,10 @@ class GraspPhases:
                         check.quiet_time - grasp.lift.lift_flag_age())
         if not check.verify_lift or remaining <= 0.0:
             return False
-        target = min(max(grasp.lift_target, grasp.lift_height + p.lift_speed * remaining),
+        # quiet_time of lift past the evidence, and the set-down probe on top of it as on top
+        # of lift_distance: the probe must not take back the lift since the catch
+        target = min(max(grasp.lift_target,
+                         grasp.lift_height + p.lift_speed * remaining + self._probe_depth()),
                      p.max_lift_distance)
         if target <= grasp.lift_height + 1e-12:
             return False
