@@ -96,12 +96,12 @@ def make_tasks(objects: Sequence[tuple[str, str]], controllers: Sequence[str], t
     run of some objects (``--objects``, ``--quick``) repeats the full run's trials of them.
     Two base seeds fewer than ``trials`` apart share trials (seeds 0 and 1 share 9 of 10).
     """
-    catalogue = [name for name, _ in benchmark_objects(quick=False)]
+    place = {name: index for index, (name, _) in enumerate(benchmark_objects(quick=False))}
     tasks = []
     for name, category in objects:
-        if name not in catalogue:
-            raise ValueError(f'{name!r} is not an object of the benchmark: {catalogue}')
-        object_index = catalogue.index(name)
+        if name not in place:
+            raise ValueError(f'{name!r} is not an object of the benchmark: {list(place)}')
+        object_index = place[name]
         for trial in range(trials):
             trial_seed = seed + 1000 * object_index + trial
             tasks += [Task(name, category, controller, trial, trial_seed)
