@@ -227,3 +227,106 @@ def test_a_late_slip_flag_lifts_on_until_the_lift_ends_quiet():
     assert out.outcome == Outcome.LIFTED, out.message
     assert out.lift_height == pytest.approx(
         world.flagged_at + check.quiet_time * LIFT_SPEED, abs=1e-4)
+
+
+class SlideUpWorld:
+    """FORTE lifting a smooth object the table holds (the Pocky box): equal levels, no slip
+    flag, the contact moving toward the fingertips by the arm's travel, until the grip has
+    been tightened ``caught_after`` times (None: never); from then on the object rises with
+    the fingers and the contact stays. Each tightening presses the pads 10 % deeper."""
+
+    def __init__(self, caught_after: int | None, lift_check: LiftCheckParams | None = None
+                 ) -> None:
+        self.machine = state_machine.GraspStateMachine(state_machine.ControllerParams(),
+                                                       lift_check)
+        self.caught_after = caught_after
+        self.now = 50.0
+        self.theta = 0.6
+        self.loaded_at: float | None = None
+        self.location = 0.4        # contact place along the fingers [-] (0 = tip)
+        self.lifted = 0.0          # commanded lift of the previous step [m]
+        self.tightened_at: list[float] = []  # commanded lift of each tightening [m]
+
+    def tightenings(self) -> int:
+        if self.loaded_at is None:
+            return 0
+        return round((self.loaded_at - self.theta) / state_machine.PAPER_SLIP_INCREMENT)
+
+    def inputs(self) -> state_machine.ControlInputs:
+        return state_machine.ControlInputs(
+            perception=state_machine.PerceptionInput(
+                stamp=self.now, force=0.4 + 5.0 * (0.6 - self.theta), force_valid=True,
+                contact=(True, True), slip_active=True,
+                filtered=grasp(self.location, 2.0 * (1.0 + 0.1 * self.tightenings()))),
+            joint=state_machine.JointInput(stamp=self.now, theta=self.theta, effort=0.05))
+
+    def run(self) -> state_machine.ControlOutputs:
+        assert self.machine.start(state_machine.GraspGoal(controller=Controller.FORTE),
+                                  self.now, self.inputs())[0]
+        while self.now < 120.0:
+            self.now += DT
+            out = self.machine.step(self.inputs(), self.now)
+            if out.servo is not None:
+                if self.loaded_at is not None and out.servo.position < self.theta - 1e-9:
+                    self.tightened_at.append(out.lift_height)
+                self.theta = out.servo.position
+            if out.state == GraspState.LIFTING and self.loaded_at is None:
+                self.loaded_at = self.theta
+            caught = self.caught_after is not None and self.tightenings() >= self.caught_after
+            if not caught:  # the fingers slide up the object by the arm's travel
+                travel = out.lift_height - self.lifted
+                self.location = max(0.0, self.location - travel / SPAN)
+            self.lifted = out.lift_height
+            if out.state == GraspState.DONE:
+                return out
+        raise AssertionError('grasp did not finish')
+
+
+def test_forte_tightens_when_the_contact_moves_along_the_fingers_and_carries_the_object():
+    """No slip flag and equal levels (rules 1 and 2 of the gross-slip reaction see nothing):
+    the contact moving toward the fingertips is the evidence. One tightening of two
+    increments catches the object, which then rises with the fingers: LIFTED, and the
+    contact judged since the tightening stayed put."""
+    world = SlideUpWorld(caught_after=2)
+    out = world.run()
+    assert out.outcome == Outcome.LIFTED, out.message
+    assert (out.slip_events, out.gross_slip_events) == (0, 1)
+    assert len(world.tightened_at) == 1
+    assert world.tightenings() == 2  # one tightening of two increments
+    # the evidence needs the first pattern (contact_settle + probe_window) and then the
+    # contact to move: never before 5 mm of lift, and well before the lift height
+    assert 0.005 < world.tightened_at[0] < 0.02
+
+
+def test_without_the_reaction_the_sliding_contact_is_refused():
+    world = SlideUpWorld(caught_after=2, lift_check=LiftCheckParams(gross_slip_reaction=False))
+    out = world.run()
+    assert world.tightened_at == []
+    assert out.outcome == Outcome.NOT_CARRIED and 'contact moved' in out.message
+
+
+@pytest.mark.parametrize('caught_after', [None, 3])
+def test_an_object_the_tightening_does_not_catch_is_not_claimed_lifted(caught_after):
+    """The fingers slide on after the tightening (until the contact reaches the end of the
+    sensing span, where a pattern can no longer move): the contact evidence tightens once
+    per lift, so the verdict judges the grip since that tightening and sees it move. An
+    object that a further increment would have caught is reported NOT_CARRIED: it was not
+    caught."""
+    world = SlideUpWorld(caught_after=caught_after)
+    out = world.run()
+    assert len(world.tightened_at) == 1
+    assert world.location < 0.05  # the contact ran to the tip
+    assert out.outcome == Outcome.NOT_CARRIED and 'contact moved' in out.message
+
+
+def test_after_the_contact_tightening_the_lift_goes_on_twice_the_travel_of_its_evidence():
+    """The object is caught 23 mm up (a contact starting 50 mm from the tip): the lift goes
+    on to twice that travel past the tightening, so rule 4 judges the tightened grip over
+    46 mm, and the set-down probe leaves it there."""
+    world = SlideUpWorld(caught_after=2)
+    world.location = 0.7
+    out = world.run()
+    assert out.outcome == Outcome.LIFTED, out.message
+    (tightened_at,) = world.tightened_at
+    assert tightened_at > 0.02
+    assert out.lift_height == pytest.approx(3.0 * tightened_at, abs=1e-4)

@@ -35,6 +35,11 @@ __all__ = ['GraspPhases']
 #: Set-down probes at most begun in one hold: each one a slip or a tightening voided sends
 #: the arm back up for another.
 MAX_PROBES = 3
+#: After the tightening on the contact moving along the fingers (one per lift, two
+#: increments: the grip slid smoothly over millimetres, not a stick-slip's step), the lift goes
+#: on this many times the lift that evidence took (from the grip change before it), so that
+#: the verdict's rule 4 judges the tightened grip over twice that travel [-]
+CONTACT_RECHECK = 2.0
 #: Set-down probe: time constant of the approach to the end point [s], and the distance
 #: from it at which the probe counts as arrived [m].
 _PROBE_APPROACH = 0.2
@@ -211,7 +216,12 @@ class GraspPhases:
         evidence, at most every ``gross_slip_interval`` and never past max_tightening (no
         fault: the lift verification judges the outcome); while the contact slides off
         (deformation decay) and a tightening is still possible, the arm waits
-        (``grasp.regrip``)."""
+        (``grasp.regrip``). The contact moving along the fingers (rule 4's evidence, read
+        during the lift) tightens once per lift, by two increments, and the lift then goes on
+        ``CONTACT_RECHECK`` times the lift that evidence took (``grasp.recheck_lift``): the
+        verdict judges the tightened grip from that tightening on, and must see it over
+        more travel than the slide took to show, or a grip that did not catch the object
+        would pass for one that did."""
         grasp = self._grasp
         assert grasp is not None and grasp.lift is not None and self._servo is not None
         check, p = grasp.lift_check, grasp.params
@@ -224,11 +234,17 @@ class GraspPhases:
             return
         sliding_off = grasp.lift.deformation_decay()
         grasp.regrip = bool(sliding_off)
-        evidence = sliding_off or grasp.lift.unequal_while_lifting(grasp.lift_height)
+        moved = '' if sliding_off or grasp.recheck_lift else grasp.lift.contact_moved()
+        evidence = sliding_off or moved or grasp.lift.unequal_while_lifting(grasp.lift_height)
         if not evidence or now - grasp.last_tightening_time < max(check.gross_slip_interval,
                                                                    p.slip_refractory):
             return
         grasp.gross_slip_events += 1
+        if moved:  # the verdict's rule 4 gets twice the travel this evidence took
+            grasp.recheck_lift = grasp.lift_height + CONTACT_RECHECK * (
+                grasp.lift_height - grasp.grip_change_lift)
+            if grasp.tightening + 2.0 * p.slip_increment <= p.max_tightening + 1e-12:
+                position = max(p.min_angle, position - p.slip_increment)  # two increments
         self._tighten_to(now, position)
         self._message = f'gross slip {grasp.gross_slip_events} ({evidence}): tightened to ' \
                         f'{position:.4f} rad'
@@ -295,6 +311,7 @@ class GraspPhases:
         assert grasp is not None and self._servo is not None
         grasp.tightening += self._servo.position - position
         grasp.last_tightening_time = now
+        grasp.grip_change_lift = grasp.lift_height
         if grasp.lift is not None:
             grasp.lift.grip_changed()
         self._command(position, grasp.params.slip_speed)
@@ -385,36 +402,38 @@ class GraspPhases:
 
         A tightening answers slip evidence: the object slid along the fingers by an unknown
         distance, possibly down onto the table, and is only known to hang as high as the lift
-        since (closed loop, seed 0: a Pringles can and a metal bottle slid onto the table 2 mm
-        before the lift height, were tightened on there and lifted 1.6-1.9 mm; the set-down
-        probe then lowered them back onto the table, and LIFTED was claimed). So the lift
-        target moves up until ``quiet_time`` of lift has passed since the last tightening,
-        plus the probe's depth (as ``lift_target`` is ``lift_distance`` plus it), within
-        ``max_lift_distance``; the probe then starts from there and leaves the object
-        ``quiet_time`` of lift above where it was caught (without the probe's depth it left
-        3 mm: a soda can and a metal bottle of seed 0 ended held 3.1-3.6 mm up). The slip
-        flags of the lift count too, so that the lift ends as rule 2 of the verdict wants it
-        (the flags that follow a tightening would otherwise fall into its last
-        ``quiet_time``). Returns True while the arm has to go on up (the caller lifts, or
-        waits for a regrip).
+        since (docs/control.md). So the lift target moves up until ``quiet_time`` of lift has
+        passed since the last tightening, plus the probe's depth (as ``lift_target`` is
+        ``lift_distance`` plus it), within ``max_lift_distance``; the probe then leaves the
+        object ``quiet_time`` of lift above where it was caught. The slip flags of the lift
+        count too, so that the lift ends as rule 2 of the verdict wants it. After the
+        tightening on the contact moving along the fingers the top is at least
+        ``grasp.recheck_lift``. Returns True while the arm has to go on up (the caller lifts,
+        or waits for a regrip).
         """
         grasp = self._grasp
         assert grasp is not None and grasp.lift is not None
         p, check = grasp.params, grasp.lift_check
         remaining = max(grasp.last_tightening_time + check.quiet_time - now,
                         check.quiet_time - grasp.lift.lift_flag_age())
-        if not check.verify_lift or remaining <= 0.0:
+        if not check.verify_lift:
             return False
-        # quiet_time of lift past the evidence, and the set-down probe on top of it as on top
-        # of lift_distance: the probe must not take back the lift since the catch
-        target = min(max(grasp.lift_target,
-                         grasp.lift_height + p.lift_speed * remaining + self._probe_depth()),
-                     p.max_lift_distance)
+        # quiet_time of lift past the evidence and the contact's recheck, and the set-down
+        # probe on top of them as on top of lift_distance: the probe must not take back the
+        # lift since the catch
+        top = grasp.recheck_lift
+        if remaining > 0.0:
+            top = max(top, grasp.lift_height + p.lift_speed * remaining)
+        target = min(max(grasp.lift_target, top + self._probe_depth()), p.max_lift_distance)
         if target <= grasp.lift_height + 1e-12:
             return False
         grasp.lift_target = target
-        self._message = (f'tightened {check.quiet_time - remaining:.2f} s ago: lifting on to '
-                         f'{target:.4f} m')
+        if top == grasp.recheck_lift:
+            self._message = (f'the contact moved: judging the tightened grip over twice that '
+                             f'travel, lifting on to {target:.4f} m')
+        else:
+            self._message = (f'tightened {check.quiet_time - remaining:.2f} s ago: lifting on '
+                             f'to {target:.4f} m')
         return True
 
     def _probe_depth(self) -> float:

@@ -73,6 +73,8 @@ class GraspProgress:
     lift: LiftMonitor | None = None
     open_levels: OpenGripperLevels | None = None  # the lift check's zero, from the open gripper
     lift_target: float = 0.0           # lift_distance, plus the set-down probe if any [m]
+    grip_change_lift: float = 0.0      # commanded lift at the last tightening (0: none) [m]
+    recheck_lift: float = 0.0          # lift the contact's place must be judged up to [m]
     probe_phase: str = ''              # '', 'down' (lowering), 'settle', 'up' (to probe again)
     probe_since: float = 0.0           # start of the probe's settle [s]
     probe_began: float = 0.0           # start of the current probe [s]
