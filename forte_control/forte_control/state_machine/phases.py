@@ -35,10 +35,9 @@ __all__ = ['GraspPhases']
 #: Set-down probes at most begun in one hold: each one a slip or a tightening voided sends
 #: the arm back up for another.
 MAX_PROBES = 3
-#: After the tightening on the contact moving along the fingers (one per lift, two
-#: increments: the grip slid smoothly over millimetres, not a stick-slip's step), the lift goes
-#: on this many times the lift that evidence took (from the grip change before it), so that
-#: the verdict's rule 4 judges the tightened grip over twice that travel [-]
+#: After the tightening on the contact moving along the fingers (once per lift, two
+#: increments), the lift goes on this many times the lift that evidence took (from the grip
+#: change before it): the verdict's rule 4 judges the tightened grip over that travel [-]
 CONTACT_RECHECK = 2.0
 #: Set-down probe: time constant of the approach to the end point [s], and the distance
 #: from it at which the probe counts as arrived [m].
@@ -216,12 +215,10 @@ class GraspPhases:
         evidence, at most every ``gross_slip_interval`` and never past max_tightening (no
         fault: the lift verification judges the outcome); while the contact slides off
         (deformation decay) and a tightening is still possible, the arm waits
-        (``grasp.regrip``). The contact moving along the fingers (rule 4's evidence, read
-        during the lift) tightens once per lift, by two increments, and the lift then goes on
-        ``CONTACT_RECHECK`` times the lift that evidence took (``grasp.recheck_lift``): the
-        verdict judges the tightened grip from that tightening on, and must see it over
-        more travel than the slide took to show, or a grip that did not catch the object
-        would pass for one that did."""
+        (``grasp.regrip``). The contact moving along the fingers (rule 4, read during the
+        lift) tightens once per lift, by two increments, and sets ``grasp.recheck_lift``
+        (``CONTACT_RECHECK``): the verdict must see the tightened grip over more travel than
+        the slide took to show, or a grip that missed the object would pass (control.md)."""
         grasp = self._grasp
         assert grasp is not None and grasp.lift is not None and self._servo is not None
         check, p = grasp.lift_check, grasp.params
@@ -234,6 +231,7 @@ class GraspPhases:
             return
         sliding_off = grasp.lift.deformation_decay()
         grasp.regrip = bool(sliding_off)
+        # the contact evidence answers once per lift: recheck_lift is set by its tightening
         moved = '' if sliding_off or grasp.recheck_lift else grasp.lift.contact_moved()
         evidence = sliding_off or moved or grasp.lift.unequal_while_lifting(grasp.lift_height)
         if not evidence or now - grasp.last_tightening_time < max(check.gross_slip_interval,
@@ -429,8 +427,8 @@ class GraspPhases:
             return False
         grasp.lift_target = target
         if top == grasp.recheck_lift:
-            self._message = (f'the contact moved: judging the tightened grip over twice that '
-                             f'travel, lifting on to {target:.4f} m')
+            self._message = (f'the contact moved: lifting on to {target:.4f} m, to judge the '
+                             'tightened grip over twice the travel that showed it')
         else:
             self._message = (f'tightened {check.quiet_time - remaining:.2f} s ago: lifting on '
                              f'to {target:.4f} m')
