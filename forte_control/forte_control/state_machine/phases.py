@@ -35,9 +35,8 @@ __all__ = ['GraspPhases']
 #: Set-down probes at most begun in one hold: each one a slip or a tightening voided sends
 #: the arm back up for another.
 MAX_PROBES = 3
-#: After the tightening on the contact moving along the fingers (once per lift, two
-#: increments), the lift goes on this many times the lift that evidence took (from the grip
-#: change before it): the verdict's rule 4 judges the tightened grip over that travel [-]
+#: The contact evidence's tightening (once per lift, two increments) lifts on this many times
+#: the lift that evidence took since the grip last changed, for rule 4 to judge it over [-]
 CONTACT_RECHECK = 2.0
 #: Set-down probe: time constant of the approach to the end point [s], and the distance
 #: from it at which the probe counts as arrived [m].
@@ -406,8 +405,7 @@ class GraspPhases:
         object ``quiet_time`` of lift above where it was caught. The slip flags of the lift
         count too, so that the lift ends as rule 2 of the verdict wants it. After the
         tightening on the contact moving along the fingers the top is at least
-        ``grasp.recheck_lift``. Returns True while the arm has to go on up (the caller lifts,
-        or waits for a regrip).
+        ``grasp.recheck_lift``. True while the arm has to go on up (lift, or wait for a regrip).
         """
         grasp = self._grasp
         assert grasp is not None and grasp.lift is not None
@@ -416,9 +414,8 @@ class GraspPhases:
                         check.quiet_time - grasp.lift.lift_flag_age())
         if not check.verify_lift:
             return False
-        # quiet_time of lift past the evidence and the contact's recheck, and the set-down
-        # probe on top of them as on top of lift_distance: the probe must not take back the
-        # lift since the catch
+        # quiet_time past the evidence and the contact's recheck, and the set-down probe on
+        # top as on top of lift_distance: the probe must not take back the lift since the catch
         top = grasp.recheck_lift
         if remaining > 0.0:
             top = max(top, grasp.lift_height + p.lift_speed * remaining)
@@ -426,12 +423,9 @@ class GraspPhases:
         if target <= grasp.lift_height + 1e-12:
             return False
         grasp.lift_target = target
-        if top == grasp.recheck_lift:
-            self._message = (f'the contact moved: lifting on to {target:.4f} m, to judge the '
-                             'tightened grip over twice the travel that showed it')
-        else:
-            self._message = (f'tightened {check.quiet_time - remaining:.2f} s ago: lifting on '
-                             f'to {target:.4f} m')
+        reason = ('the contact moved along the fingers' if top == grasp.recheck_lift
+                  else f'tightened {check.quiet_time - remaining:.2f} s ago')
+        self._message = f'{reason}: lifting on to {target:.4f} m'
         return True
 
     def _probe_depth(self) -> float:
