@@ -353,13 +353,21 @@ def test_stale_input_and_diagnostics(harness):
         assert time.monotonic() < deadline, 'no stale state'
         time.sleep(0.02)
     assert all(s.data_valid for s in harness.states if s.sample_index < 599)
+    # a report published while the stream was still arriving counts part of it: every report
+    # must be consistent, and one published after the last message (1 Hz) must count it all
     deadline = time.monotonic() + 5.0
-    while not harness.diagnostics and time.monotonic() < deadline:
+    counts = []
+    while (len(counts) == 0 or counts[-1] != (30, 600)) and time.monotonic() < deadline:
         time.sleep(0.05)
-    status = harness.diagnostics[-1].status[0]
-    assert status.name == 'perception: pipeline'
-    values = {kv.key: kv.value for kv in status.values}
-    assert values['messages'] == '30' and values['samples'] == '600'
+        counts = []
+        for array in list(harness.diagnostics):
+            status = array.status[0]
+            assert status.name == 'perception: pipeline'
+            values = {kv.key: kv.value for kv in status.values}
+            counts.append((int(values['messages']), int(values['samples'])))
+    assert counts and counts[-1] == (30, 600), counts
+    assert all(samples == CHUNK * messages for messages, samples in counts), counts
+    assert counts == sorted(counts), counts
 
 
 def test_entry_point_process_runs_and_stops_cleanly(tmp_path, model_file):
