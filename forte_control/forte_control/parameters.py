@@ -96,6 +96,11 @@ CONTROLLER_PARAMETERS: dict[str, ParameterSpec] = _field_table((
           "'absolute'", choices=('relative', 'absolute')),
     _spec('invalid_force_timeout', float, 's', 'longest wait for a valid force while loading',
           0.0, 5.0),
+    _spec('min_finger_share', float, '', 'FORTE loads on past the force target while the '
+          "weaker finger's deformation level is below this fraction of the stronger's (the "
+          'object pinned against one finger; 0: off, the paper\'s loading)', 0.0, 1.0),
+    _spec('max_balancing_closing', float, 'rad', 'FORTE closes at most this far past the '
+          'command that reached the force target while the object is pinned', 0.0, 1.0),
     # lifting
     _spec('lift_speed', float, 'm/s', 'arm lift speed', MIN_LIFT_SPEED, HARD_MAX_LIFT_SPEED),
     _spec('lift_distance', float, 'm', 'lift height that counts as success',

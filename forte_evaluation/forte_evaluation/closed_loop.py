@@ -414,11 +414,12 @@ def _pipeline(config, tare_duration: float, slip_mode: str | None, model):
 
 
 def controller_params_for(slip_mode: str | None) -> ControllerParams:
-    """The controller a slip mode is measured with: the paper's reaction (one tightening per
-    slip event, ``slip_reaction='events'``) for the paper's detector, so ``slip_mode`` paper
-    is the paper's method end to end; the sliding reaction (the defaults) otherwise."""
+    """The controller a slip mode is measured with: for the paper's detector the paper's
+    loading (to the force target, ``min_finger_share=0``) and reaction (one tightening per
+    slip event, ``slip_reaction='events'``), so ``slip_mode`` paper is the paper's method end
+    to end; FORTE's (the defaults) otherwise."""
     if slip_mode == 'paper':
-        return ControllerParams(slip_reaction='events')
+        return ControllerParams(slip_reaction='events', min_finger_share=0.0)
     return ControllerParams()
 
 

@@ -37,6 +37,9 @@ class ControllerParams:
     initial_force: float = 0.25             # f_init [N]
     initial_force_mode: str = 'relative'    # 'relative' (above force at contact) | 'absolute'
     invalid_force_timeout: float = 0.5      # longest wait for a valid force in LOADING [s]
+    min_finger_share: float = 0.33          # FORTE loads on while the weaker finger's level
+    #                                         is below this x the stronger's (0: off) [-]
+    max_balancing_closing: float = 0.1      # ... at most this far past the target [rad]
     # lifting
     lift_speed: float = 0.005               # arm lift speed [m/s]
     lift_distance: float = 0.03             # lift height that counts as success [m]

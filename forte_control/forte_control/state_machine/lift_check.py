@@ -65,7 +65,8 @@ from forte_control.state_machine.types import WrenchInput
 from forte_ros.contract import DISTAL, FINGER_CHANNELS, MIDDLE, N_CHANNELS, ROOT
 
 __all__ = ['ContactTrack', 'LiftCheckParams', 'LiftMonitor', 'LiftVerdict', 'OpenGripperLevels',
-           'closed_on_object_evidence', 'deformation_level', 'finger_levels', 'middle_shift']
+           'closed_on_object_evidence', 'deformation_level', 'finger_levels', 'middle_shift',
+           'pinned_against_one_finger']
 
 
 @dataclass(frozen=True)
@@ -148,6 +149,43 @@ def finger_levels(filtered: tuple[float, ...] | None) -> tuple[float, float] | N
         return None
     left, right = (sum(filtered[channel] for channel in channels) for channels in FINGER_CHANNELS)
     return left, right
+
+
+def pinned_against_one_finger(filtered: tuple[float, ...] | None, zero: tuple[float, float],
+                              min_share: float, floor: float) -> str:
+    """Loading evidence: the object pinned against one finger, the other barely loaded.
+
+    A heavy object that the first finger to touch pushes across the table is held there by
+    the table's friction: that finger alone can reach the force target while the other has
+    hardly touched. Lifted from there, the table's support goes and nothing holds the
+    object but a one-sided grip: the fingers slide on it, smoothly, before any stick-slip
+    rings.
+
+    Parameters
+    ----------
+    filtered : tuple of 6 float or None
+        Tared filtered channels in contract order.
+    zero : tuple of 2 float
+        (left, right) levels of the open gripper to subtract [normalised].
+    min_share : float
+        Smallest weaker / stronger finger level ratio of a grip of both fingers [-] (0: off).
+    floor : float
+        Stronger level below which there is no evidence (an unloaded gripper) [normalised].
+
+    Returns
+    -------
+    str
+        The evidence with its numbers; empty when there is none.
+    """
+    levels = finger_levels(filtered)
+    if levels is None or min_share <= 0.0:
+        return ''
+    left, right = levels[0] - zero[0], levels[1] - zero[1]
+    stronger, weaker = max(left, right), min(left, right)
+    if stronger <= floor or weaker >= min_share * stronger:
+        return ''
+    return (f'finger levels {left:.4f} / {right:.4f}: the weaker below {min_share:g} of the '
+            'stronger, the object pinned against one finger')
 
 
 def _all_channels_finite(filtered: tuple[float, ...] | None) -> bool:

@@ -1,11 +1,11 @@
 """The phases of a grasp: one handler per active state of :class:`GraspStateMachine`.
 
 :class:`GraspPhases` is the base class of :class:`~.machine.GraspStateMachine`: the handler
-of each active state (:attr:`GraspPhases._PHASES`: CLOSING, LOADING, LIFTING, HOLDING,
-RELEASING), what they share (slip reaction, drop detection and lift evidence while the
-object is up, the set-down probe and the verdict of the lift), and the state changes and
-servo commands they make. The machine runs a handler only after the safety checks of the
-step passed. Pure Python, no rclpy.
+of each active state (:attr:`GraspPhases._PHASES`: CLOSING, LOADING from its base
+:class:`~.loading.LoadingPhase`, LIFTING, HOLDING, RELEASING), what they share (slip
+reaction, drop detection and lift evidence while the object is up, the set-down probe and
+the verdict of the lift), and the state changes and servo commands they make. The machine
+runs a handler only after the safety checks of the step passed. Pure Python, no rclpy.
 """
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ from forte_control.state_machine.lift_check import (
     closed_on_object_evidence,
     deformation_level,
 )
+from forte_control.state_machine.loading import LoadingPhase
 from forte_control.state_machine.progress import GraspProgress, LatestInputs
 from forte_control.state_machine.safety import flag_names, fresh
 from forte_control.state_machine.types import (
@@ -44,7 +45,7 @@ _PROBE_APPROACH = 0.2
 _PROBE_END = 1e-5
 
 
-class GraspPhases:
+class GraspPhases(LoadingPhase):
     """The handlers of the active states and the state changes they make.
 
     A handler is called as ``handler(machine, now, perception, valid)`` (``valid``: the
@@ -107,39 +108,6 @@ class GraspPhases:
             self._enter_lifting(now, 'ON_OFF: closed fully, lifting')
         return False
 
-    def _loading(self, now: float, perception: PerceptionInput | None, valid: bool) -> bool:
-        """LOADING: ramp on at loading_speed until the force target, then LIFTING."""
-        grasp = self._grasp
-        assert grasp is not None
-        if not valid:
-            self._hold_ramp(now)
-            return False
-        assert perception is not None
-        p = grasp.params
-        if not perception.force_valid or not math.isfinite(perception.force):
-            if grasp.force_invalid_since is None:
-                grasp.force_invalid_since = now
-            if now - grasp.force_invalid_since > p.invalid_force_timeout:
-                self._fault(FaultFlag.INVALID_INPUT, 'no valid force estimate for '
-                            f'{p.invalid_force_timeout:g} s while loading')
-            else:
-                self._hold_ramp(now)
-            return False
-        grasp.force_invalid_since = None
-        if grasp.contact_force is None and p.initial_force_mode == 'relative':
-            grasp.contact_force = perception.force
-            self._update_target(perception)
-        if perception.force >= grasp.target_force:
-            self._enter_lifting(now, f'loaded {perception.force:.3f} N (target '
-                                f'{grasp.target_force:.3f} N), lifting')
-            return False
-        command = self._ramp(now, p.loading_speed, p.min_angle)
-        self._command(command, p.loading_speed)
-        if command <= p.min_angle:
-            self._enter_lifting(now, f'closed fully at {perception.force:.3f} N before the '
-                                f'target {grasp.target_force:.3f} N, lifting')
-        return False
-
     def _lifting(self, now: float, perception: PerceptionInput | None, valid: bool) -> bool:
         """LIFTING: the grip watched (:meth:`_watch_grip`), the arm up to the lift height."""
         reacted, ended = self._watch_grip(now, perception, valid)
@@ -173,7 +141,7 @@ class GraspPhases:
     _PHASES: dict[GraspState, Callable[[GraspPhases, float, PerceptionInput | None,
                                         bool], bool]] = {
         GraspState.CLOSING: _closing,
-        GraspState.LOADING: _loading,
+        GraspState.LOADING: LoadingPhase._loading,
         GraspState.LIFTING: _lifting,
         GraspState.HOLDING: _holding,
         GraspState.RELEASING: _releasing,
@@ -493,17 +461,6 @@ class GraspPhases:
         level = deformation_level(perception.filtered)
         return flagged or (grasp is not None and level is not None
                            and 0.0 < grasp.params.contact_level <= level)
-
-    def _update_target(self, perception: PerceptionInput) -> None:
-        grasp = self._grasp
-        assert grasp is not None
-        p = grasp.params
-        if p.initial_force_mode == 'absolute':
-            grasp.target_force = p.initial_force
-        elif grasp.contact_force is not None:
-            grasp.target_force = grasp.contact_force + p.initial_force
-        else:
-            grasp.target_force = math.nan  # unknown until a valid force arrives
 
     def _enter_lifting(self, now: float, message: str) -> None:
         grasp = self._grasp

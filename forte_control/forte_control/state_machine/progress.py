@@ -61,6 +61,7 @@ class GraspProgress:
     ramp_commands: RampCommands = field(default_factory=RampCommands)  # for ramp_lead
     contact_force: float | None = None
     target_force: float = 0.0
+    balancing_from: float | None = None  # command that first reached the target [rad]
     force_invalid_since: float | None = None
     over_force_since: float | None = None
     at_min_since: float | None = None
