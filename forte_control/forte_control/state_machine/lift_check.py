@@ -132,13 +132,17 @@ def shear_index(filtered: tuple[float, ...] | None) -> float | None:
                for channels in FINGER_CHANNELS)
 
 
-def finger_levels(filtered: tuple[float, ...] | None) -> tuple[float, float] | None:
+def finger_levels(filtered: tuple[float, ...] | None, zero: tuple[float, float] = (0.0, 0.0)
+                  ) -> tuple[float, float] | None:
     """Deformation level of each finger: sum of its three tared filtered channels.
 
     Parameters
     ----------
     filtered : tuple of 6 float or None
         Channels in contract order (left distal, middle, root, right distal, middle, root).
+    zero : tuple of 2 float
+        (left, right) levels that read as unloaded, subtracted (:class:`OpenGripperLevels`)
+        [normalised].
 
     Returns
     -------
@@ -148,7 +152,7 @@ def finger_levels(filtered: tuple[float, ...] | None) -> tuple[float, float] | N
     if not _all_channels_finite(filtered):
         return None
     left, right = (sum(filtered[channel] for channel in channels) for channels in FINGER_CHANNELS)
-    return left, right
+    return left - zero[0], right - zero[1]
 
 
 def pinned_against_one_finger(filtered: tuple[float, ...] | None, zero: tuple[float, float],
@@ -177,10 +181,10 @@ def pinned_against_one_finger(filtered: tuple[float, ...] | None, zero: tuple[fl
     str
         The evidence with its numbers; empty when there is none.
     """
-    levels = finger_levels(filtered)
+    levels = finger_levels(filtered, zero)
     if levels is None or min_share <= 0.0:
         return ''
-    left, right = levels[0] - zero[0], levels[1] - zero[1]
+    left, right = levels
     stronger, weaker = max(left, right), min(left, right)
     if stronger <= floor or weaker >= min_share * stronger:
         return ''
@@ -388,9 +392,8 @@ class LiftMonitor:
             Current time for the wrench freshness [s] (default ``stamp``).
         """
         p = self.params
-        levels = finger_levels(filtered)
+        levels = finger_levels(filtered, self.zero)
         if levels is not None:
-            levels = (levels[0] - self.zero[0], levels[1] - self.zero[1])
             self._levels.append((stamp, levels[0], levels[1], shear_index(filtered)))
             self._peak_level = max(self._peak_level, levels[0] + levels[1])
             keep = max(p.balance_window, p.probe_window)

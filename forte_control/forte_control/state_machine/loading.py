@@ -63,9 +63,8 @@ class LoadingPhase:
         p = grasp.params
         if self._controller != Controller.FORTE:
             return False
-        zero = grasp.open_levels.zero() if grasp.open_levels is not None else (0.0, 0.0)
-        evidence = pinned_against_one_finger(perception.filtered, zero, p.min_finger_share,
-                                             grasp.lift_check.balance_floor)
+        evidence = pinned_against_one_finger(perception.filtered, grasp.levels_zero(),
+                                             p.min_finger_share, grasp.lift_check.balance_floor)
         if not evidence:
             return False
         if grasp.balancing_from is None:

@@ -467,8 +467,7 @@ class GraspPhases(LoadingPhase):
         assert grasp is not None
         self._enter(GraspState.LIFTING, now)
         grasp.drop = DropDetector(grasp.params)
-        grasp.lift = LiftMonitor(grasp.lift_check, grasp.open_levels.zero()
-                                 if grasp.open_levels is not None else (0.0, 0.0))
+        grasp.lift = LiftMonitor(grasp.lift_check, grasp.levels_zero())
         grasp.lift_target = grasp.params.lift_distance + self._probe_depth()
         perception = self._latest.perception
         if perception is not None and perception.data_valid \

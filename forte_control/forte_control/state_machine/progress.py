@@ -88,6 +88,10 @@ class GraspProgress:
     lift_height: float = 0.0
     outcome: Outcome = Outcome.NONE
 
+    def levels_zero(self) -> tuple[float, float]:
+        """The finger levels that read as unloaded: the open gripper's, (0, 0) without them."""
+        return self.open_levels.zero() if self.open_levels is not None else (0.0, 0.0)
+
 
 @dataclass
 class LatestInputs:

@@ -332,9 +332,16 @@ def test_stream_of_commands_each_sent_once_while_joint_states_flow(bus, harness)
         harness.send(0.2 + 0.002 * index, max_current=0.4, profile_velocity=4.0)
         time.sleep(0.02)
 
-    def goal_of_servo_1(parameters: bytes) -> int:  # 4 header bytes, then (id, 18 bytes) each
-        block = 4 if parameters[4] == 1 else 4 + 19
-        return int.from_bytes(parameters[block + 1 + 14:block + 1 + 18], 'little', signed=True)
+    def goal_of_servo_1(parameters: bytes) -> int:
+        """Goal Position of servo 1 in a sync write: address and length (2 bytes each), then
+        (id, data) per servo."""
+        assert int.from_bytes(parameters[0:2], 'little') == ct.COMMAND_BLOCK_START
+        chunk = 1 + int.from_bytes(parameters[2:4], 'little')
+        start = 1 + ct.GOAL_POSITION.address - ct.COMMAND_BLOCK_START
+        for offset in range(4, len(parameters), chunk):
+            if parameters[offset] == 1:
+                return ct.decode_value(ct.GOAL_POSITION, parameters[offset + start:])
+        raise AssertionError(f'servo 1 is not in the sync write {parameters.hex()}')
 
     def goals_written():  # [pulse from the centre] in each sync write since the stream began
         return [goal_of_servo_1(parameters) - 2048
