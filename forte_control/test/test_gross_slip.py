@@ -11,12 +11,12 @@ from __future__ import annotations
 from dataclasses import replace
 
 import pytest
+from grasp_world import ACTIVE, DT, GraspWorld, squeeze_force
 
 from forte_control import state_machine
 from forte_control.state_machine import Controller, GraspState, Outcome
 from forte_control.state_machine.lift_check import LiftCheckParams, LiftMonitor
 
-DT = 0.01
 EQUAL = (0.10, 0.06, 0.03, 0.10, 0.06, 0.03)       # levels 0.19 / 0.19
 ONE_SIDED = (0.10, 0.06, 0.03, 0.05, 0.03, 0.015)  # levels 0.19 / 0.095
 
@@ -75,19 +75,16 @@ def test_a_barely_loaded_gripper_has_no_decay_evidence():
     assert monitor.deformation_decay() == ''
 
 
-class TableWorld:
+class TableWorld(GraspWorld):
     """An object on the table pinned against the left finger until the grip exceeds
     ``free_after`` tightenings: from then on it is centred (equal levels). In contact from
     the start; the grip force grows 5 N/rad as the servo closes."""
 
     def __init__(self, controller: Controller, free_after: int | None,
                  lift_check: LiftCheckParams | None = None) -> None:
-        self.machine = state_machine.GraspStateMachine(state_machine.ControllerParams(),
-                                                       lift_check)
+        super().__init__(lift_check=lift_check)
         self.controller = controller
         self.free_after = free_after
-        self.now = 10.0
-        self.theta = 0.6
         self.loaded_at: float | None = None
 
     def pattern(self) -> tuple[float, ...]:
@@ -98,30 +95,22 @@ class TableWorld:
             return EQUAL
         return ONE_SIDED
 
-    def inputs(self) -> state_machine.ControlInputs:
-        return state_machine.ControlInputs(
-            perception=state_machine.PerceptionInput(
-                stamp=self.now, force=0.4 + 5.0 * (0.6 - self.theta), force_valid=True,
-                contact=(True, True),
-                slip_active=True, filtered=self.pattern()),
-            joint=state_machine.JointInput(stamp=self.now, theta=self.theta, effort=0.05))
+    def perception(self) -> state_machine.PerceptionInput:
+        return state_machine.PerceptionInput(
+            stamp=self.now, force=squeeze_force(self.theta), force_valid=True,
+            contact=(True, True), slip_active=True, filtered=self.pattern())
 
     def run(self) -> tuple[state_machine.ControlOutputs, list[float]]:
         """Run to the end; returns the last outputs and the lift heights of tightenings."""
-        assert self.machine.start(state_machine.GraspGoal(controller=self.controller),
-                                  self.now, self.inputs())[0]
+        self.start(self.controller)
         tightened_at = []
         while True:
-            self.now += DT
-            out = self.machine.step(self.inputs(), self.now)
-            if out.servo is not None:
-                if self.loaded_at is not None and out.servo.position < self.theta - 1e-9:
-                    tightened_at.append(out.lift_height)
-                self.theta = out.servo.position
+            out, closed = self.step()
+            if closed and self.loaded_at is not None:
+                tightened_at.append(out.lift_height)
             if out.state == GraspState.LIFTING and self.loaded_at is None:
                 self.loaded_at = self.theta  # the grip the loading ended with
-            if out.state not in (GraspState.CLOSING, GraspState.LOADING, GraspState.LIFTING,
-                                 GraspState.HOLDING):
+            if out.state not in ACTIVE:
                 return out, tightened_at
 
 
@@ -161,48 +150,38 @@ def test_no_gross_slip_reaction_without_forte_or_when_switched_off(controller, l
     assert out.outcome == Outcome.NOT_CARRIED
 
 
-class SlidingOffWorld:
+class SlidingOffWorld(GraspWorld):
     """Fingers sliding off a round object: while the arm lifts, the deformation decays
     5 % per mm of lift; each tightening restores 15 % (up to the start level); with the arm
     still it holds."""
 
     def __init__(self, lift_check: LiftCheckParams | None = None) -> None:
-        self.machine = state_machine.GraspStateMachine(state_machine.ControllerParams(),
-                                                       lift_check)
-        self.now = 10.0
-        self.theta = 0.6
+        super().__init__(lift_check=lift_check)
         self.scale = 1.0
         self.tightened_at: list[float] = []  # commanded lift of each tightening [m]
 
-    def inputs(self) -> state_machine.ControlInputs:
-        return state_machine.ControlInputs(
-            perception=state_machine.PerceptionInput(
-                stamp=self.now, force=0.4 + 5.0 * (0.6 - self.theta), force_valid=True,
-                contact=(True, True), slip_active=True, filtered=scaled(EQUAL, self.scale)),
-            joint=state_machine.JointInput(stamp=self.now, theta=self.theta, effort=0.05))
+    def perception(self) -> state_machine.PerceptionInput:
+        return state_machine.PerceptionInput(
+            stamp=self.now, force=squeeze_force(self.theta), force_valid=True,
+            contact=(True, True), slip_active=True, filtered=scaled(EQUAL, self.scale))
 
     def run(self) -> tuple[state_machine.ControlOutputs, int, int]:
         """Run to the end: last outputs, tightenings and control steps with the arm
         stopped while LIFTING."""
-        assert self.machine.start(state_machine.GraspGoal(controller=Controller.FORTE),
-                                  self.now, self.inputs())[0]
+        self.start(Controller.FORTE)
         paused = tightened = 0
         lifting = False
         while True:
-            self.now += DT
-            out = self.machine.step(self.inputs(), self.now)
-            if out.servo is not None:
-                if lifting and out.servo.position < self.theta - 1e-9:
-                    tightened += 1
-                    self.tightened_at.append(out.lift_height)
-                    self.scale = min(1.0, self.scale + 0.15)
-                self.theta = out.servo.position
+            out, closed = self.step()
+            if closed and lifting:
+                tightened += 1
+                self.tightened_at.append(out.lift_height)
+                self.scale = min(1.0, self.scale + 0.15)
             lifting = out.state == GraspState.LIFTING
             if lifting:
                 paused += out.arm_velocity == 0.0
                 self.scale *= 1.0 - 0.05 * out.arm_velocity * DT * 1000.0
-            if out.state not in (GraspState.CLOSING, GraspState.LOADING, GraspState.LIFTING,
-                                 GraspState.HOLDING):
+            if out.state not in ACTIVE:
                 return out, tightened, paused
 
 

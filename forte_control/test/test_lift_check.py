@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import pytest
+from grasp_world import ACTIVE, DT, GraspWorld
 
 from forte_control import state_machine
 from forte_control.state_machine import GraspState, GraspStateMachine, Outcome
@@ -24,7 +25,6 @@ from forte_control.state_machine.lift_check import (
 from forte_control.state_machine.phases import MAX_PROBES
 from forte_control.state_machine.types import WrenchInput
 
-DT = 0.01
 EQUAL = (0.10, 0.06, 0.03, 0.10, 0.06, 0.03)       # both fingers pressed alike
 ONE_SIDED = (0.10, 0.06, 0.03, 0.05, 0.03, 0.015)  # right finger at half the left's load
 
@@ -243,43 +243,32 @@ def test_an_empty_gripper_closes_on_nothing():
                                      None) == ''
 
 
-class World:
+class World(GraspWorld):
     """The joint follows the command unless an object blocks it at ``block``; the tactile
     pattern and force are set by the test."""
 
     def __init__(self, lift_check: LiftCheckParams | None = None) -> None:
-        self.machine = GraspStateMachine(state_machine.ControllerParams(), lift_check)
-        self.now = 50.0
-        self.theta = 0.6
+        super().__init__(lift_check=lift_check, now=50.0)
         self.block = -1.0
         self.filtered = (0.0,) * 6
         self.force = 0.0
-        self.effort = 0.05
         self.contact = (False, False)
         self.slip = False
 
-    def inputs(self) -> state_machine.ControlInputs:
-        return state_machine.ControlInputs(
-            perception=state_machine.PerceptionInput(
-                stamp=self.now, force=self.force, force_valid=True, contact=self.contact,
-                slip=self.slip, slip_active=True, filtered=self.filtered),
-            joint=state_machine.JointInput(stamp=self.now, theta=self.theta,
-                                           effort=self.effort))
+    def perception(self) -> state_machine.PerceptionInput:
+        return state_machine.PerceptionInput(
+            stamp=self.now, force=self.force, force_valid=True, contact=self.contact,
+            slip=self.slip, slip_active=True, filtered=self.filtered)
 
-    def start(self, controller: state_machine.Controller) -> None:
-        assert self.machine.start(state_machine.GraspGoal(controller=controller), self.now,
-                                  self.inputs())[0]
+    def follow(self, command: float) -> float:
+        return max(command, self.block)
 
     def run(self, limit: float = 20.0):
         self.start(state_machine.Controller.NO_SLIP)
         end = self.now + limit
         while self.now < end:
-            self.now += DT
-            out = self.machine.step(self.inputs(), self.now)
-            if out.servo is not None:
-                self.theta = max(out.servo.position, self.block)
-            if out.state not in (GraspState.CLOSING, GraspState.LOADING, GraspState.LIFTING,
-                                 GraspState.HOLDING):
+            out, _ = self.step()
+            if out.state not in ACTIVE:
                 return out
         raise AssertionError('grasp did not finish')
 
@@ -313,10 +302,7 @@ def test_a_deformation_level_is_contact_while_closing(contact_level, loads):
     world.start(state_machine.Controller.NO_SLIP)
     states = set()
     for _ in range(2000):
-        world.now += DT
-        out = world.machine.step(world.inputs(), world.now)
-        if out.servo is not None:
-            world.theta = out.servo.position
+        out, _ = world.step()
         states.add(out.state)
         if out.state not in (GraspState.CLOSING, GraspState.LOADING):
             break
@@ -359,8 +345,7 @@ def test_machine_probes_by_setting_down_and_judges_the_shear_change(table_holds)
     world.start(state_machine.Controller.FORTE)
     top = 0.0
     while True:
-        world.now += DT
-        out = world.machine.step(world.inputs(), world.now)
+        out, _ = world.step()
         top = max(top, out.lift_height)
         if out.arm_velocity < 0.0 and table_holds:  # lowering onto the table's support
             world.filtered = (0.097, 0.06, 0.032, 0.097, 0.06, 0.032)
@@ -390,11 +375,8 @@ def probe_run(world: World, controller, during_hold, during_lowering, limit: flo
     moves: list[str] = []
     end = world.now + limit
     while world.now < end:
-        world.now += DT
-        out = world.machine.step(world.inputs(), world.now)
+        out, _ = world.step()
         world.slip = False
-        if out.servo is not None:
-            world.theta = max(out.servo.position, world.block)
         direction = '+' if out.arm_velocity > 0 else '-' if out.arm_velocity < 0 else ''
         if direction and (not moves or moves[-1] != direction):
             moves.append(direction)
@@ -493,12 +475,9 @@ def test_machine_judges_the_lift_from_the_open_gripper_levels(open_time, outcome
     end = world.now + 30.0
     opened = world.now + open_time
     while world.now < end:
-        world.now += DT
-        if world.now >= opened:
+        if world.now + DT >= opened:
             world.contact, world.force, world.filtered = (True, True), 0.4, DRIFTED_EQUAL
-        out = world.machine.step(world.inputs(), world.now)
-        if out.servo is not None:
-            world.theta = out.servo.position
+        out, _ = world.step()
         if out.state == GraspState.DONE:
             break
     assert out.outcome == outcome, out.message

@@ -18,12 +18,12 @@ import math
 import random
 
 import pytest
+from grasp_world import DT, GraspWorld, squeeze_force
 
 from forte_control import state_machine
 from forte_control.state_machine import Controller, GraspState, Outcome
 from forte_control.state_machine.lift_check import LiftCheckParams, LiftMonitor, middle_shift
 
-DT = 0.01
 SPAN = 0.072                       # finger length that the contact location 0..1 covers [m]
 CENTRES = (0.15, 0.5, 0.85)        # legs of the distal, middle and root channel [-]
 BASE = (0.026, 0.016, 0.010)       # channel gain with the contact over its leg [1/mm]
@@ -148,46 +148,36 @@ def test_tightenings_in_the_hold_do_not_move_the_first_pattern():
     assert 'contact moved' in monitor.contact_moved()
 
 
-class LateSlipWorld:
+class LateSlipWorld(GraspWorld):
     """FORTE lifting an object; one slip flag when the lift reaches ``slip_at``: the object
     slid down onto the table there and the tightening holds it (it rises with the fingers
     from then on). Equal, constant tactile pattern: only the arm's path is judged."""
 
     def __init__(self, slip_at: float, controller: Controller = Controller.FORTE) -> None:
-        self.machine = state_machine.GraspStateMachine(state_machine.ControllerParams())
+        super().__init__(now=50.0)
         self.controller = controller
         self.slip_at = slip_at
         self.flagged_at = math.nan  # commanded lift when the flag was sent [m]
-        self.now = 50.0
-        self.theta = 0.6
         self.slip = False
 
-    def inputs(self) -> state_machine.ControlInputs:
-        return state_machine.ControlInputs(
-            perception=state_machine.PerceptionInput(
-                stamp=self.now, force=0.4 + 5.0 * (0.6 - self.theta), force_valid=True,
-                contact=(True, True),
-                slip=self.slip, slip_active=True, filtered=grasp(0.3)),
-            joint=state_machine.JointInput(stamp=self.now, theta=self.theta, effort=0.05))
+    def perception(self) -> state_machine.PerceptionInput:
+        return state_machine.PerceptionInput(
+            stamp=self.now, force=squeeze_force(self.theta), force_valid=True,
+            contact=(True, True), slip=self.slip, slip_active=True, filtered=grasp(0.3))
 
     def run(self) -> tuple[state_machine.ControlOutputs, float, list[float]]:
         """Last outputs, the lift of the tightening and the object's height at every step
         after it [m]."""
-        assert self.machine.start(state_machine.GraspGoal(controller=self.controller),
-                                  self.now, self.inputs())[0]
+        self.start(self.controller)
         tightened_at, heights, slipped, lifted = math.nan, [], False, 0.0
         while self.now < 120.0:
-            self.now += DT
             self.slip = not slipped and lifted >= self.slip_at
             if self.slip:
                 slipped, self.flagged_at = True, lifted
-            out = self.machine.step(self.inputs(), self.now)
+            out, closed = self.step()
             lifted = out.lift_height
-            if out.state in (GraspState.LIFTING, GraspState.HOLDING) and out.servo is not None \
-                    and out.servo.position < self.theta - 1e-9:
+            if closed and out.state in (GraspState.LIFTING, GraspState.HOLDING):
                 tightened_at = out.lift_height
-            if out.servo is not None:
-                self.theta = out.servo.position
             if math.isfinite(tightened_at):
                 heights.append(out.lift_height - tightened_at)
             if out.state == GraspState.DONE:
@@ -229,7 +219,7 @@ def test_a_late_slip_flag_lifts_on_until_the_lift_ends_quiet():
         world.flagged_at + check.quiet_time * LIFT_SPEED, abs=1e-4)
 
 
-class SlideUpWorld:
+class SlideUpWorld(GraspWorld):
     """FORTE lifting a smooth object the table holds (the Pocky box): equal levels, no slip
     flag, the contact moving toward the fingertips by the arm's travel, until the grip has
     been tightened ``caught_after`` times (None: never); from then on the object rises with
@@ -237,11 +227,8 @@ class SlideUpWorld:
 
     def __init__(self, caught_after: int | None, lift_check: LiftCheckParams | None = None
                  ) -> None:
-        self.machine = state_machine.GraspStateMachine(state_machine.ControllerParams(),
-                                                       lift_check)
+        super().__init__(lift_check=lift_check, now=50.0)
         self.caught_after = caught_after
-        self.now = 50.0
-        self.theta = 0.6
         self.loaded_at: float | None = None
         self.location = 0.4        # contact place along the fingers [-] (0 = tip)
         self.lifted = 0.0          # commanded lift of the previous step [m]
@@ -252,24 +239,18 @@ class SlideUpWorld:
             return 0
         return round((self.loaded_at - self.theta) / state_machine.PAPER_SLIP_INCREMENT)
 
-    def inputs(self) -> state_machine.ControlInputs:
-        return state_machine.ControlInputs(
-            perception=state_machine.PerceptionInput(
-                stamp=self.now, force=0.4 + 5.0 * (0.6 - self.theta), force_valid=True,
-                contact=(True, True), slip_active=True,
-                filtered=grasp(self.location, 2.0 * (1.0 + 0.1 * self.tightenings()))),
-            joint=state_machine.JointInput(stamp=self.now, theta=self.theta, effort=0.05))
+    def perception(self) -> state_machine.PerceptionInput:
+        return state_machine.PerceptionInput(
+            stamp=self.now, force=squeeze_force(self.theta), force_valid=True,
+            contact=(True, True), slip_active=True,
+            filtered=grasp(self.location, 2.0 * (1.0 + 0.1 * self.tightenings())))
 
     def run(self) -> state_machine.ControlOutputs:
-        assert self.machine.start(state_machine.GraspGoal(controller=Controller.FORTE),
-                                  self.now, self.inputs())[0]
+        self.start(Controller.FORTE)
         while self.now < 120.0:
-            self.now += DT
-            out = self.machine.step(self.inputs(), self.now)
-            if out.servo is not None:
-                if self.loaded_at is not None and out.servo.position < self.theta - 1e-9:
-                    self.tightened_at.append(out.lift_height)
-                self.theta = out.servo.position
+            out, closed = self.step()
+            if closed and self.loaded_at is not None:
+                self.tightened_at.append(out.lift_height)
             if out.state == GraspState.LIFTING and self.loaded_at is None:
                 self.loaded_at = self.theta
             caught = self.caught_after is not None and self.tightenings() >= self.caught_after

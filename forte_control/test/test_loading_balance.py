@@ -13,28 +13,26 @@ from __future__ import annotations
 from dataclasses import replace
 
 import pytest
+from grasp_world import DT, GraspWorld
 
 from forte_control import state_machine
 from forte_control.state_machine import Controller, GraspState
 from forte_control.state_machine.lift_check import pinned_against_one_finger
 
-DT = 0.01
 STIFFNESS = 5.0                 # finger force per rad of travel past its touch [N/rad]
 LEFT_TOUCH = 0.5                # command at which the left finger touches [rad]
 TABLE_FRICTION = 1.2            # force the table's friction holds the object with [N]
 LEG_GAINS = (0.10, 0.06, 0.03)  # (distal, middle, root) channel per N of finger force
 
 
-class PinnedWorld:
+class PinnedWorld(GraspWorld):
     """An object on the table, touched first by the left finger."""
 
     def __init__(self, right_touch: float, params: state_machine.ControllerParams,
                  controller: Controller = Controller.FORTE) -> None:
-        self.machine = state_machine.GraspStateMachine(params)
+        super().__init__(params)
         self.controller = controller
         self.right_touch = right_touch
-        self.now = 10.0
-        self.theta = 0.6
         self.messages: list[str] = []
 
     def forces(self) -> tuple[float, float]:
@@ -45,26 +43,20 @@ class PinnedWorld:
             left = min(left, TABLE_FRICTION)  # the object slides on the table, pushed
         return left, right
 
-    def inputs(self) -> state_machine.ControlInputs:
+    def perception(self) -> state_machine.PerceptionInput:
         left, right = self.forces()
         filtered = tuple(gain * left for gain in LEG_GAINS) + \
             tuple(gain * right for gain in LEG_GAINS)
-        return state_machine.ControlInputs(
-            perception=state_machine.PerceptionInput(
-                stamp=self.now, force=left + right, force_valid=True,
-                contact=(left > 0.0, right > 0.0), slip_active=True, filtered=filtered),
-            joint=state_machine.JointInput(stamp=self.now, theta=self.theta, effort=0.05))
+        return state_machine.PerceptionInput(
+            stamp=self.now, force=left + right, force_valid=True,
+            contact=(left > 0.0, right > 0.0), slip_active=True, filtered=filtered)
 
     def run_to_lift(self) -> tuple[float, float, float]:
         """Step until LIFTING begins: (command, left force, right force) then."""
-        assert self.machine.start(state_machine.GraspGoal(controller=self.controller),
-                                  self.now, self.inputs())[0]
+        self.start(self.controller)
         while self.now < 40.0:
-            self.now += DT
-            out = self.machine.step(self.inputs(), self.now)
+            out, _ = self.step()
             self.messages.append(out.message)
-            if out.servo is not None:
-                self.theta = out.servo.position
             if out.state == GraspState.LIFTING:
                 return (self.theta, *self.forces())
             assert out.state in (GraspState.CLOSING, GraspState.LOADING), out.message

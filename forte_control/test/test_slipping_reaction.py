@@ -9,7 +9,8 @@ from __future__ import annotations
 from dataclasses import replace
 
 import pytest
-from test_state_machine import DT, Rig
+from grasp_world import DT
+from test_state_machine import Rig
 
 from forte_control.state_machine import (
     PAPER_SLIP_INCREMENT,

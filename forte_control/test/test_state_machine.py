@@ -5,6 +5,7 @@ import math
 from dataclasses import replace
 
 import pytest
+from grasp_world import DT
 
 from forte_control.state_machine import (
     PAPER_SLIP_INCREMENT,
@@ -19,9 +20,6 @@ from forte_control.state_machine import (
     Outcome,
     PerceptionInput,
 )
-
-DT = 0.01  # one perception update (20 samples at 2 kHz) [s]
-
 
 #: Tared filtered channels of an object held by both fingers alike (a carried object).
 CARRIED = (0.05, 0.03, 0.015) * 2
