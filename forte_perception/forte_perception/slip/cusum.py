@@ -55,6 +55,15 @@ every output is bit for bit the single test's. The lower drift admits the larger
 mean of fewer channels, so the weak test hears only fingers whose three channels are all
 usable at that update; a finger with a channel lost keeps the first test.
 
+**Coherent sum** (``coherent_offset``; off unless set and the update brings the window
+moments). A release rings one mode that a finger's three channels see in phase, over
+independent noises. The power of the sum of the channels' band-passed signals, each divided
+by its quiet band amplitude, the window's mean removed (a ramp is a coherent constant), over
+its quiet value 3 (:func:`coherent_excess`, the largest of the four sign patterns: a
+transducer may be plumbed reversed) gains 4.8 dB over a channel for three equal channels.
+Its quiet spread is one signal's, so less an offset it joins the finger's input
+(:func:`pooled_excess`) where the weak test may listen (code flicker below).
+
 **Quiet level.** ``L_c`` is measured, not a constant: per block of ``level_block`` seconds
 (fixed absolute update indices), the median of ``y_c`` over the block's *quiet* updates
 (the finger neither slipping nor accumulating, ``S_f = 0``) moves ``L_c`` by the fraction
@@ -95,7 +104,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from forte_perception.slip.state import FINGER_INDEX, QuietLevels, finger_means
+from forte_perception.slip.state import (
+    FINGER_INDEX,
+    PAIR_FIRST,
+    PAIR_SECOND,
+    QuietLevels,
+    finger_means,
+)
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
 
 #: The finger of each channel, (6,).
@@ -103,7 +118,8 @@ _CHANNEL_FINGER = np.argsort(FINGER_INDEX.ravel()) // FINGER_INDEX.shape[1]
 #: Segments of at most this many updates take the scalar quiet path (a 20-sample chunk: 5).
 _SCALAR_UPDATES = 16
 
-__all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'expected_delay', 'pooled_excess']
+__all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'coherent_excess', 'expected_delay',
+           'pooled_excess']
 
 
 @dataclass(frozen=True)
@@ -132,6 +148,10 @@ class CusumParams:
     weak_drift, weak_threshold : float
         The weak-change test beside it: a second drift, under ``drift`` [dB] (4), and its
         threshold [dB s] (inf: off); module docstring, "Two drifts".
+    coherent_offset : float
+        Where the update brings the window moments of the band-passed signals, a finger's
+        input is also at least its coherent excess less this [dB] (inf: off;
+        :func:`coherent_excess`).
     """
 
     drift: float = 6.0
@@ -143,6 +163,7 @@ class CusumParams:
     single_offset: float = math.inf
     weak_drift: float = 4.0
     weak_threshold: float = math.inf
+    coherent_offset: float = math.inf
 
     @property
     def weak(self) -> bool:
@@ -159,8 +180,9 @@ class CusumParams:
             raise ValueError(f'margin must be finite, got {self.margin}')
         if not (np.isfinite(self.clear_time) and self.clear_time >= 0):
             raise ValueError(f'clear_time must be >= 0, got {self.clear_time}')
-        if not self.single_offset >= 0:  # NaN fails too; inf is allowed (off)
-            raise ValueError(f'single_offset must be >= 0 dB, got {self.single_offset}')
+        for name in ('single_offset', 'coherent_offset'):
+            if not getattr(self, name) >= 0:  # NaN fails too; inf is allowed (off)
+                raise ValueError(f'{name} must be >= 0 dB, got {getattr(self, name)}')
         if not (math.isfinite(self.weak_drift) and self.weak_drift > 0):
             raise ValueError(f'weak_drift must be positive and finite, got {self.weak_drift}')
         if not self.weak_threshold > 0:  # inf allowed (off), NaN refused
@@ -171,7 +193,8 @@ class CusumParams:
                              f'({self.drift} dB): it is the test for the smaller change')
 
 
-def pooled_excess(z: np.ndarray, single_offset: float) -> np.ndarray:
+def pooled_excess(z: np.ndarray, single_offset: float, coherent: np.ndarray | None = None,
+                  coherent_offset: float = math.inf) -> np.ndarray:
     """Per finger, the larger of the mean excess of its usable channels and the largest
     channel's excess less ``single_offset``.
 
@@ -189,21 +212,71 @@ def pooled_excess(z: np.ndarray, single_offset: float) -> np.ndarray:
         Excess of each channel over its quiet level [dB]; NaN: unusable or no level yet.
     single_offset : float
         [dB]; inf gives the mean alone.
+    coherent : ndarray, shape (m, 2), optional
+        Each finger's coherent excess (:func:`coherent_excess`) [dB]; NaN: unknown.
+    coherent_offset : float
+        [dB]; the finger's input is at least ``coherent`` less it (inf: not).
 
     Returns
     -------
     ndarray, shape (m, 2)
         [dB]; NaN where a finger has no usable channel.
     """
-    mean = finger_means(z)
-    if not math.isfinite(single_offset):
-        return mean
-    grouped = z[:, FINGER_INDEX]  # (m, 2, 3)
-    usable = np.isfinite(grouped)
-    # fmax skips NaN (NaN only where all are): the largest usable channel per finger
-    largest = np.fmax.reduce(grouped if usable.all() else np.where(usable, grouped, np.nan),
-                             axis=2)
-    return np.fmax(mean, largest - single_offset)
+    pooled = finger_means(z)
+    if math.isfinite(single_offset):
+        grouped = z[:, FINGER_INDEX]  # (m, 2, 3)
+        usable = np.isfinite(grouped)
+        # fmax skips NaN (NaN only where all are): the largest usable channel per finger
+        largest = np.fmax.reduce(grouped if usable.all() else
+                                 np.where(usable, grouped, np.nan), axis=2)
+        pooled = np.fmax(pooled, largest - single_offset)
+    if coherent is not None and math.isfinite(coherent_offset):
+        pooled = np.fmax(pooled, coherent - coherent_offset)
+    return pooled
+
+
+#: The products ``s_a s_b`` of the channel signs (+++, ++-, +-+, -++) for the pairs
+#: (01, 02, 12) of a finger, (4, 3).
+_SIGN_PATTERNS = np.array([[1.0, 1.0, 1.0], [1.0, -1.0, -1.0], [-1.0, 1.0, -1.0],
+                           [-1.0, -1.0, 1.0]])
+
+
+def coherent_excess(power_db: np.ndarray, level: np.ndarray, means: np.ndarray,
+                    products: np.ndarray) -> np.ndarray:
+    """Per finger, the power of the sum of its channels' band-passed signals, each divided
+    by its quiet band amplitude and the window's mean removed, over its quiet value 3.
+
+    A release rings one bending mode that the three channels of a finger see in phase while
+    their noises are independent: for three equal in-phase channels the sum's excess is a
+    channel's signal-to-noise ratio plus 4.8 dB, where the mean of their dB excesses gains
+    nothing. A lab may plumb a transducer reversed, so the largest of the four sign patterns
+    (+++, ++-, +-+, -++) is taken. The window's mean is removed: a ramp through the
+    band-pass is a constant on every channel, as coherent as a ring, while a 10-50 Hz ring
+    has little mean over the window.
+
+    Parameters
+    ----------
+    power_db : ndarray, shape (m, 6)
+        Each channel's band power over the window, floor included [dB]; NaN: unusable.
+    level : ndarray, shape (6,)
+        Quiet levels of ``power_db`` [dB]; NaN: none yet.
+    means, products : ndarray, shape (m, 6)
+        The window means of each channel's band-passed signal and of the products of the
+        finger pairs (:data:`~forte_perception.slip.state.PAIR_FIRST`, ``PAIR_SECOND``)
+        [normalised unit, unit^2].
+
+    Returns
+    -------
+    ndarray, shape (m, 2)
+        [dB]; NaN where a channel of the finger is unusable or has no level.
+    """
+    weight = 10.0 ** (-0.05 * level)  # 1 / quiet band amplitude, (6,)
+    variance = (10.0 ** (0.1 * power_db) - means * means) * (weight * weight)
+    covariance = ((products - means[:, PAIR_FIRST] * means[:, PAIR_SECOND])
+                  * (weight[PAIR_FIRST] * weight[PAIR_SECOND]))
+    best = (covariance.reshape(-1, 2, 1, 3) * _SIGN_PATTERNS).sum(axis=3).max(axis=2)
+    with np.errstate(invalid='ignore'):
+        return 10.0 * np.log10((variance[:, FINGER_INDEX].sum(axis=2) + 2.0 * best) / 3.0)
 
 
 def _lindley(x: np.ndarray, c0, m0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -314,7 +387,9 @@ class BandPowerCusum:
         return self._levels.level.copy()
 
     def update(self, psd_db: np.ndarray, veto: Callable[[int], bool] | None = None,
-               weak: np.ndarray | None = None) -> CusumResult:
+               weak: np.ndarray | None = None,
+               moments: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None = None
+               ) -> CusumResult:
         """Consume updates ``psd_db`` (m, 6) [dB] and return their decisions.
 
         Parameters
@@ -324,8 +399,14 @@ class BandPowerCusum:
         veto : callable, optional
             ``i -> bool`` for an alarm at row ``i`` of this chunk; True drops it.
         weak : ndarray (m, 2), bool, optional
-            Fingers the weak-change test may hear at each update (default: all; it never
-            hears a finger with a channel unusable).
+            Fingers the weak-change test and the coherent excess may hear at each update
+            (default: all; the weak test never hears a finger with a channel unusable).
+        moments : callable, optional
+            Returns the window means of the band-passed signals and of the finger pairs'
+            products behind ``psd_db``, (m, 6) each
+            (:attr:`~forte_perception.slip.state.BandPower.moments`); asked only where a
+            finger may hear the coherent excess, which then joins its input (with a finite
+            ``coherent_offset``).
         """
         y = np.asarray(psd_db, np.float64).reshape(-1, N_CHANNELS)
         m = y.shape[0]
@@ -336,13 +417,14 @@ class BandPowerCusum:
         while pos < m:  # segments of constant quiet levels, up to a block's end
             stop = self._levels.segment_stop(pos, m)
             self._segment(y, pos, stop, out, veto,
-                          None if allowed is None else allowed[pos:stop])
+                          None if allowed is None else allowed[pos:stop], moments)
             pos = stop
         return out
 
     # -- one stretch of updates with constant levels
     def _segment(self, y: np.ndarray, lo: int, hi: int, out: CusumResult,
-                 veto: Callable[[int], bool] | None, allowed: np.ndarray | None) -> None:
+                 veto: Callable[[int], bool] | None, allowed: np.ndarray | None,
+                 moments: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None) -> None:
         seg = y[lo:hi]
         level = self._levels.level
         z = seg - level  # NaN where the channel is unusable or has no level yet
@@ -350,7 +432,17 @@ class BandPowerCusum:
         everywhere = bool(finite.all())  # the common case: every channel usable, with a level
         out.active[lo:hi] = True if everywhere else (finite.any(axis=1)
                                                      | np.isfinite(level).any())
-        excess = pooled_excess(z, self.params.single_offset)  # NaN: no usable channel
+        coherent = None
+        # only where the weak test may listen (code flicker below)
+        if moments is not None and math.isfinite(self.params.coherent_offset) \
+                and (allowed is None or allowed.any()):
+            means, products = moments()
+            coherent = coherent_excess(seg, level, means[lo:hi], products[lo:hi])
+            if allowed is not None:
+                coherent = np.where(allowed, coherent, np.nan)
+        # NaN: no usable channel
+        excess = pooled_excess(z, self.params.single_offset, coherent,
+                               self.params.coherent_offset)
         out.excess[lo:hi] = excess
         x = (excess - self.params.drift) * self.dt  # (n, 2)
         if not everywhere:

@@ -30,7 +30,8 @@ all three channels usable and whose loudest channel has a fast band amplitude ``
 of at least ``weak_least`` (1 LSB: below it a median-filtered channel near a code step
 flickers by one code, which moves its excess 7-10 dB); its alarms meet the same vetoes.
 Chosen on the tune part of the slip set (docs/perception.md): a lower drift or threshold
-(5 dB / 0.15, 4 dB / 0.4) made false alarms on sub-LSB quiet holds.
+(5 dB / 0.15, 4 dB / 0.4) made false alarms on sub-LSB quiet holds. Both tests also read the
+finger's coherent excess less :data:`COHERENT_OFFSET` (2 dB; the CUSUM's "Coherent sum").
 
 **What else raises the fast power, and the vetoes** (asked at every alarm; a vetoed alarm
 restarts ``S``):
@@ -357,6 +358,8 @@ def loudest_of_finger(power: np.ndarray) -> np.ndarray:
 
 #: The weak-slip test beside the CUSUM: its drift [dB] and threshold [dB s] (module docstring).
 WEAK_DRIFT, WEAK_THRESHOLD = 6.0, 0.1
+#: A finger's input is at least its coherent excess less this [dB] (module docstring).
+COHERENT_OFFSET = 2.0
 #: Hysteresis of the decaying-ring reading: at least this [LSB] and this many times the
 #: channel's quiet band amplitude (rms), so noise alone makes no lobe (module docstring).
 RING_FLOOR_LSB, RING_FLOOR_NOISE = 0.5, 3.0
@@ -370,7 +373,8 @@ def _cusum_of(slip: SlipParams) -> CusumParams:
     weak = WEAK_THRESHOLD if slip.sequential_drift > WEAK_DRIFT else math.inf
     return CusumParams(drift=slip.sequential_drift, threshold=slip.sequential_threshold,
                        clear_time=0.05, single_offset=slip.sequential_single_offset,
-                       weak_drift=WEAK_DRIFT, weak_threshold=weak)
+                       weak_drift=WEAK_DRIFT, weak_threshold=weak,
+                       coherent_offset=COHERENT_OFFSET)
 
 
 class SequentialDetector:
@@ -401,7 +405,8 @@ class SequentialDetector:
         fast = int(round(self.params.window * fs))
         order = self.state.params.order
         # one band-pass of the slip band for the CUSUM's fast window and the state's window
-        self._low = BandPower(fs, band, order, (fast, self.state.window), self.state.floor)
+        self._low = BandPower(fs, band, order, (fast, self.state.window), self.state.floor,
+                              moments=fast)
         self._high = BandPower(fs, self.params.high_band, order, (fast,), quantisation_floor(
             self.state.params.floor_factor, self.params.high_band, fs))
         self._high_levels = QuietLevels(self.state.levels.block, self.state.levels.beta)
@@ -483,7 +488,7 @@ class SequentialDetector:
             stop = stop if known else -1  # an unknown motion may still move the level
             return self._veto(ext, origin, (int(ends[i]), stop), low[i], high[i], levels)
 
-        result = self._cusum.update(low, veto, self._audible(low))
+        result = self._cusum.update(low, veto, self._audible(low), lambda: self._low.moments)
         self.vetoed += result.vetoed
         state = self.state.decide(power, result.slip, usable)
         self._samples += x.shape[0]

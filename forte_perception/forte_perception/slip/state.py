@@ -75,6 +75,10 @@ from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, QUANTUM
 
 #: Each finger's channels, (2, 3): one gather groups a (k, 6) array by finger.
 FINGER_INDEX = np.array(FINGER_CHANNELS)
+#: The three channel pairs of each finger, (01, 02, 12) of the left then the right finger:
+#: the columns of :attr:`BandPower.moments`' cross products, (6,) each.
+PAIR_FIRST = FINGER_INDEX[:, [0, 0, 1]].ravel()
+PAIR_SECOND = FINGER_INDEX[:, [1, 2, 2]].ravel()
 #: Updates since the last release before the first one (longer than any decay time).
 _NO_RELEASE = 1 << 30
 
@@ -189,13 +193,18 @@ class BandPower:
         Averaging windows [samples], each >= 2.
     floor : float
         Power added before the logarithm [normalised unit^2].
+    moments : int, optional
+        Also keep, at every update, the mean of each channel's band-passed signal and of the
+        products of the channel pairs of each finger (:data:`PAIR_FIRST`,
+        :data:`PAIR_SECOND`) over the last ``moments`` samples (:attr:`moments`).
     """
 
     def __init__(self, fs: float, band: tuple[float, float], order: int,
-                 windows: tuple[int, ...], floor: float) -> None:
+                 windows: tuple[int, ...], floor: float, moments: int | None = None) -> None:
         self._sos = butter(int(order), band, btype='bandpass', fs=fs, output='sos')
         self._windows = tuple(int(w) for w in windows)
         self._floor = float(floor)
+        self._moment_window = None if moments is None else int(moments)
         self.reset()
 
     @property
@@ -207,7 +216,10 @@ class BandPower:
         """Forget the filter state and the squares kept."""
         self._zi: np.ndarray | None = None
         self._squares = np.zeros((0, N_CHANNELS))  # the last max(windows) - 1 squared outputs
+        self._outputs = np.zeros((0, N_CHANNELS))  # the last moments - 1 band-passed outputs
         self._samples = 0
+        self._pending: tuple[np.ndarray, np.ndarray] | None = None  # outputs, update rows
+        self._moments: tuple[np.ndarray, np.ndarray] | None = None
 
     def feed(self, filtered: np.ndarray, ends: np.ndarray) -> list[np.ndarray]:
         """Band-pass the new samples (n, 6); the power (m, 6) [dB] of each window at the
@@ -228,7 +240,27 @@ class BandPower:
         keep = max(self._windows) - 1
         self._squares = ext[-keep:]
         rel = np.asarray(ends, int) - (first - (ext.shape[0] - x.shape[0]))
+        if self._moment_window is not None:
+            outputs = np.concatenate([self._outputs, y])
+            self._outputs = outputs[max(outputs.shape[0] - self._moment_window + 1, 0):]
+            self._pending = (outputs, np.asarray(ends, int)
+                             - (first - (outputs.shape[0] - x.shape[0])))
+            self._moments = None
         return self._window_powers(ext, rel)
+
+    @property
+    def moments(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The window means of each channel's band-passed signal and of the products of the
+        finger pairs (:data:`PAIR_FIRST`, :data:`PAIR_SECOND`) at the updates of the last
+        :meth:`feed`, (m, 6) each [normalised unit, unit^2]; None without ``moments``.
+        Computed when first asked for (the detector asks only where it may use them)."""
+        if self._moments is None and self._pending is not None:
+            outputs, rows = self._pending
+            columns = np.concatenate(
+                [outputs, outputs[:, PAIR_FIRST] * outputs[:, PAIR_SECOND]], axis=1)
+            means = window_means(columns, rows, self._moment_window)
+            self._moments = (means[:, :N_CHANNELS], means[:, N_CHANNELS:])
+        return self._moments
 
     def _window_powers(self, ext: np.ndarray, rel: np.ndarray) -> list[np.ndarray]:
         """The power [dB] (m, 6) of each window ending at the rows ``rel`` (m,) of ``ext``.
@@ -253,6 +285,20 @@ class BandPower:
                 power[i] = run.sum(axis=1) / length
             out.append(10.0 * np.log10(power + self._floor))
         return out
+
+
+def window_means(values: np.ndarray, rows: np.ndarray, window: int) -> np.ndarray:
+    """Column means of the last ``window`` rows of ``values`` (k, c) up to each of ``rows``
+    (m,) (fewer at the start), (m, c); each a reduction of its own contiguous run, so any
+    chunking gives the same means bit for bit."""
+    full = rows >= window - 1
+    if full.all():  # the common case: one gather (m, window, c), summed row after row
+        return values[rows[:, None] + np.arange(1 - window, 1)].sum(axis=1) / window
+    out = np.empty((rows.size, values.shape[1]))
+    for i, row in enumerate(rows.tolist()):
+        start = max(row - window + 1, 0)
+        out[i] = values[start:row + 1][None].sum(axis=1)[0] / (row + 1 - start)
+    return out
 
 
 class QuietLevels:

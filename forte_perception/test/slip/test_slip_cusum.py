@@ -8,7 +8,13 @@ import pytest
 
 from forte_perception.evaluation.benchmark import MODES, cusum_mode, prepare
 from forte_perception.evaluation.scenes import make_scene
-from forte_perception.slip.cusum import BandPowerCusum, CusumParams, expected_delay, pooled_excess
+from forte_perception.slip.cusum import (
+    BandPowerCusum,
+    CusumParams,
+    coherent_excess,
+    expected_delay,
+    pooled_excess,
+)
 
 DT = 4 / 2000.0        # hop 4 at 2 kHz
 LEVEL = -80.0          # quiet level of every channel [dB]
@@ -232,7 +238,8 @@ def test_parameters_are_validated():
                 dict(clear_time=-0.1), dict(level_tau=math.inf), dict(single_offset=-1.0),
                 dict(single_offset=math.nan), dict(weak_threshold=0.0),
                 dict(weak_threshold=math.nan), dict(weak_drift=0.0),
-                dict(drift=6.0, weak_drift=6.0, weak_threshold=0.1)):
+                dict(drift=6.0, weak_drift=6.0, weak_threshold=0.1),
+                dict(coherent_offset=-1.0), dict(coherent_offset=math.nan)):
         with pytest.raises(ValueError):
             CusumParams(**bad).validate()
     with pytest.raises(ValueError):
@@ -251,3 +258,53 @@ def test_the_cusum_mode_finds_strong_stick_slip_and_ignores_a_quiet_hold():
         for onset, _ in scene.events:
             assert ((flags >= onset) & (flags <= onset + reach)).any(), (onset, flags)
     assert not cusum_mode(quiet).slip.any()
+
+
+def moments_of(signals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Power [dB], means and finger-pair products (1, 6) of one window of ``signals`` (n, 6)."""
+    means = signals.mean(axis=0)
+    products = np.array([(signals[:, a] * signals[:, b]).mean()
+                         for a, b in ((0, 1), (0, 2), (1, 2), (3, 4), (3, 5), (4, 5))])
+    return (10.0 * np.log10((signals ** 2).mean(axis=0)))[None], means[None], products[None]
+
+
+def test_the_coherent_excess_of_known_windows():
+    """Whitened by quiet levels of 0 dB: three equal in-phase unit sines give 10 log10(3 x
+    0.5 x 3 / 3) (a channel's 0.5 plus 4.8 dB), whatever the sign of each channel; three
+    orthogonal ones give the mean of the channels' powers; a constant gives nothing."""
+    t = np.arange(400) / 2000.0
+    sine = np.sin(2 * np.pi * 25.0 * t)
+    cosine = np.cos(2 * np.pi * 25.0 * t)
+    level = np.zeros(6)
+    equal = 10.0 * math.log10(0.5 * 3.0)
+    for signs in ((1, 1, 1), (1, -1, 1), (-1, 1, 1), (1, 1, -1), (-1, -1, -1)):
+        signals = np.column_stack([s * sine for s in signs] + [sine, sine, cosine])
+        got = coherent_excess(*[moments_of(signals)[0], level, *moments_of(signals)[1:]])
+        assert got[0, 0] == pytest.approx(equal, abs=1e-9)
+        # the right finger: two in phase and one in quadrature: (0.5 x 4 + 0.5) / 3
+        assert got[0, 1] == pytest.approx(10.0 * math.log10(2.5 / 3.0), abs=1e-3)
+    signals = np.column_stack([sine, cosine, 1e-3 * np.sin(2 * np.pi * 50.0 * t)] * 2)
+    got = coherent_excess(*[moments_of(signals)[0], level, *moments_of(signals)[1:]])
+    assert got[0, 0] == pytest.approx(10.0 * math.log10((0.5 + 0.5 + 0.5e-6) / 3.0), abs=1e-3)
+    # a constant (a ramp through the band-pass) on every channel: the mean is removed
+    power, means, products = moments_of(np.full((400, 6), 2.0) + 1e-3 * sine[:, None])
+    assert coherent_excess(power, level, means, products)[0, 0] < -50.0  # 10.8 dB with it
+    # a channel without a level or unusable: that finger unknown, the other not
+    for bad_level, bad_power in ((0, None), (None, 4)):
+        lv, pw = level.copy(), moments_of(signals)[0].copy()
+        if bad_level is not None:
+            lv[bad_level] = np.nan
+        if bad_power is not None:
+            pw[0, bad_power] = np.nan
+        got = coherent_excess(pw, lv, *moments_of(signals)[1:])
+        assert np.isnan(got[0, 0 if bad_level is not None else 1])
+        assert np.isfinite(got[0, 1 if bad_level is not None else 0])
+
+
+def test_the_coherent_excess_joins_the_pooled_input_less_its_offset():
+    z = np.array([[2.0, 2.0, 2.0, 9.0, 0.0, 0.0]])
+    coherent = np.array([[7.0, np.nan]])
+    np.testing.assert_array_equal(pooled_excess(z, 4.0, coherent, 2.0), [[5.0, 5.0]])
+    np.testing.assert_array_equal(pooled_excess(z, 4.0, coherent, math.inf), [[2.0, 5.0]])
+    np.testing.assert_array_equal(pooled_excess(z, 4.0), [[2.0, 5.0]])
+    np.testing.assert_array_equal(pooled_excess(z, math.inf, coherent, 2.0), [[5.0, 3.0]])

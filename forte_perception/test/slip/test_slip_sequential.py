@@ -87,14 +87,36 @@ def first_alarm_ms(x: np.ndarray, params: SequentialParams) -> float:
 
 @pytest.mark.parametrize('seed', [0, 1, 2])
 def test_a_weak_vibration_is_heard_by_the_weak_slip_test(seed):
-    """Without the weak-slip test the 1.5 LSB burst is heard after 130 ms or not at all; with
-    it, within 100 ms (6 dB drift, 0.1 dB s: about 0.1 / (7 - 6) s once the window is full)."""
+    """Without the weak-slip test (and the coherent sum) the 1.5 LSB burst is heard after 130
+    ms or not at all; with it, within 100 ms (6 dB drift, 0.1 dB s: about 0.1 / (7 - 6) s
+    once the window is full)."""
     x = weak_burst(seed)
-    with_weak = SequentialParams()
-    assert with_weak.cusum.weak
+    default = SequentialParams()
+    assert default.cusum.weak
+    with_weak = replace(default, cusum=replace(default.cusum, coherent_offset=math.inf))
     without = replace(with_weak, cusum=replace(with_weak.cusum, weak_threshold=math.inf))
     assert first_alarm_ms(x, with_weak) <= 100.0
     assert first_alarm_ms(x, without) > 100.0
+
+
+@pytest.mark.parametrize('signs', [(1, 1, 1), (1, -1, 1)])
+def test_the_coherent_sum_hears_a_weak_in_phase_vibration_sooner(signs):
+    """The same burst in phase on the finger's three channels (one transducer plumbed
+    reversed in the second case): each channel's fast excess is about 7 dB, the coherent
+    sum's about 4.8 dB more, 9.5 dB less the 2 dB offset over the 6 dB weak drift. Over five
+    noise seeds it is never heard later with the coherent sum, and 20 ms sooner on average
+    (measured: 6-94 ms sooner, 45 ms on average)."""
+    default = SequentialParams()
+    assert math.isfinite(default.cusum.coherent_offset)
+    without = replace(default, cusum=replace(default.cusum, coherent_offset=math.inf))
+    gains = []
+    for seed in range(5):
+        x = weak_burst(seed)
+        x[:, :3] = 40.0 + (x[:, :3] - 40.0) * np.array(signs)
+        with_sum = first_alarm_ms(x, default)
+        assert with_sum <= 100.0
+        gains.append(first_alarm_ms(x, without) - with_sum)
+    assert min(gains) >= 0.0 and np.mean(gains) >= 20.0
 
 
 class _NoLeast(SequentialDetector):

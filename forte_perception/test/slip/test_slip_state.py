@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.signal import sosfilt, sosfilt_zi
 
 from forte_perception.pipeline import PerceptionPipeline, PipelineConfig
 from forte_perception.slip.params import SlipParams
@@ -156,6 +157,35 @@ def test_one_band_pass_serves_several_windows_bit_for_bit():
            for i in range(0, x.shape[0], 37)]
     assert np.array_equal(np.concatenate([g[0] for g in got]), short.feed(x, ends)[0])
     assert np.array_equal(np.concatenate([g[1] for g in got]), long.feed(x, ends)[0])
+
+
+def test_the_window_moments_are_the_band_passed_means_and_pair_products_bit_for_bit():
+    """BandPower's moments over its window: the means of the band-passed outputs and of the
+    finger pairs' products, the same under any chunking as in one call, and equal to the
+    window means of a band-pass run on the whole record (to rounding)."""
+    x = with_burst(noisy(3000, seed=8), 1000, 2000, 12.0)
+    ends = np.arange(HOP - 1, x.shape[0], HOP)
+    floor = SlippingState(FS, BAND, HOP / FS).floor
+    whole = BandPower(FS, BAND, 1, (60,), floor, moments=60)
+    whole.feed(x, ends)
+    means, products = whole.moments
+    assert means.shape == products.shape == (ends.size, 6)
+    parts = BandPower(FS, BAND, 1, (60,), floor, moments=60)
+    got = []
+    for i in range(0, x.shape[0], 37):
+        parts.feed(x[i:i + 37], ends[(ends >= i) & (ends < i + 37)])
+        got.append(parts.moments)
+    assert np.array_equal(np.concatenate([g[0] for g in got]), means)
+    assert np.array_equal(np.concatenate([g[1] for g in got]), products)
+    y = sosfilt(whole.sos, x, axis=0, zi=sosfilt_zi(whole.sos)[:, :, None] * x[0])[0]
+    for i in (0, 5, 100, ends.size - 1):
+        run = y[max(ends[i] - 59, 0):ends[i] + 1]
+        np.testing.assert_allclose(means[i], run.mean(axis=0), rtol=1e-9, atol=1e-15)
+        np.testing.assert_allclose(
+            products[i], [(run[:, a] * run[:, b]).mean() for a, b in
+                          ((0, 1), (0, 2), (1, 2), (3, 4), (3, 5), (4, 5))],
+            rtol=1e-9, atol=1e-18)
+    assert BandPower(FS, BAND, 1, (60,), floor).moments is None
 
 
 def test_quiet_levels_alone_are_the_states_levels_without_events():
