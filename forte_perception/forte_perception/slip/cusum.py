@@ -195,8 +195,9 @@ class CusumParams:
 
 def pooled_excess(z: np.ndarray, single_offset: float, coherent: np.ndarray | None = None,
                   coherent_offset: float = math.inf) -> np.ndarray:
-    """Per finger, the larger of the mean excess of its usable channels and the largest
-    channel's excess less ``single_offset``.
+    """Per finger, the largest of the mean excess of its usable channels, the largest
+    channel's excess less ``single_offset`` and, when given, its coherent excess less
+    ``coherent_offset``.
 
     The mean is the test for a slip that all three channels of a finger hear. When one
     channel alone carries it (a contact over one leg of the fin ray, a tube crossed to the

@@ -291,13 +291,17 @@ def window_means(values: np.ndarray, rows: np.ndarray, window: int) -> np.ndarra
     """Column means of the last ``window`` rows of ``values`` (k, c) up to each of ``rows``
     (m,) (fewer at the start), (m, c); each a reduction of its own contiguous run, so any
     chunking gives the same means bit for bit."""
+    def gathered(ends: np.ndarray) -> np.ndarray:  # (k, window, c), summed row after row
+        return values[ends[:, None] + np.arange(1 - window, 1)].sum(axis=1) / window
+
     full = rows >= window - 1
-    if full.all():  # the common case: one gather (m, window, c), summed row after row
-        return values[rows[:, None] + np.arange(1 - window, 1)].sum(axis=1) / window
+    if full.all():  # the common case
+        return gathered(rows)
     out = np.empty((rows.size, values.shape[1]))
-    for i, row in enumerate(rows.tolist()):
-        start = max(row - window + 1, 0)
-        out[i] = values[start:row + 1][None].sum(axis=1)[0] / (row + 1 - start)
+    out[full] = gathered(rows[full])
+    for i in np.flatnonzero(~full):  # the first window - 1 samples after a reset
+        # the same (1, rows, c) reduction as the gather's, over the rows there are
+        out[i] = values[None, :rows[i] + 1].sum(axis=1)[0] / (rows[i] + 1)
     return out
 
 
