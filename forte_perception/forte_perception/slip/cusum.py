@@ -55,6 +55,16 @@ every output is bit for bit the single test's. The lower drift admits the larger
 mean of fewer channels, so the weak test hears only fingers whose three channels are all
 usable at that update; a finger with a channel lost keeps the first test.
 
+*The weak test hears only what varies within the window* (issue 38), where the update brings
+the window moments (below): its input is the same pooled excess with each channel's power
+less the square of its window mean (:func:`demeaned_excess`). A ramp through the band-pass
+is a constant and a 0.5-5 Hz sway nearly one over a 30 ms window: with its lower drift the
+weak test summed the excess they leak (8-10 dB on a finger, at 1.2-1.6 LSB noise) into
+alarms that a noise alternation let through the level-shift veto. A ring of the finger's
+modes keeps most of its power (the mean of a sine over a window of length ``T`` carries
+``sinc^2(f T)`` of it on average: 2.1 dB lost at 17 Hz, 0.1 dB at 38 Hz, for ``T`` = 30 ms).
+The first test keeps the whole power.
+
 **Coherent sum** (``coherent_offset``; off unless set and the update brings the window
 moments). A release rings one mode that a finger's three channels see in phase, over
 independent noises. The power of the sum of the channels' band-passed signals, each divided
@@ -104,22 +114,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from forte_perception.slip.state import (
-    FINGER_INDEX,
-    PAIR_FIRST,
-    PAIR_SECOND,
-    QuietLevels,
-    finger_means,
-)
+from forte_perception.slip.excess import coherent_excess, demeaned_excess, pooled_excess
+from forte_perception.slip.state import CHANNEL_FINGER, FINGER_INDEX, QuietLevels
 from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS
 
-#: The finger of each channel, (6,).
-_CHANNEL_FINGER = np.argsort(FINGER_INDEX.ravel()) // FINGER_INDEX.shape[1]
 #: Segments of at most this many updates take the scalar quiet path (a 20-sample chunk: 5).
 _SCALAR_UPDATES = 16
 
-__all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'coherent_excess', 'expected_delay',
-           'pooled_excess']
+__all__ = ['BandPowerCusum', 'CusumParams', 'CusumResult', 'coherent_excess', 'demeaned_excess',
+           'expected_delay', 'pooled_excess']  # a finger's input: slip.excess
 
 
 @dataclass(frozen=True)
@@ -191,93 +194,6 @@ class CusumParams:
         if self.weak and not self.weak_drift < self.drift:
             raise ValueError(f'weak_drift ({self.weak_drift} dB) must lie under drift '
                              f'({self.drift} dB): it is the test for the smaller change')
-
-
-def pooled_excess(z: np.ndarray, single_offset: float, coherent: np.ndarray | None = None,
-                  coherent_offset: float = math.inf) -> np.ndarray:
-    """Per finger, the largest of the mean excess of its usable channels, the largest
-    channel's excess less ``single_offset`` and, when given, its coherent excess less
-    ``coherent_offset``.
-
-    The mean is the test for a slip that all three channels of a finger hear. When one
-    channel alone carries it (a contact over one leg of the fin ray, a tube crossed to the
-    other finger's input, a sensor with fewer elements wired to one input) the mean is a
-    third of that channel's excess and a slip of less than three times the drift is never
-    found; the largest channel alone is the test for a slip in one unknown channel. Its
-    quiet value is the largest of three draws and each has the spread of one channel, not of
-    a mean of three: ``single_offset`` puts it back below the drift.
-
-    Parameters
-    ----------
-    z : ndarray, shape (m, 6)
-        Excess of each channel over its quiet level [dB]; NaN: unusable or no level yet.
-    single_offset : float
-        [dB]; inf gives the mean alone.
-    coherent : ndarray, shape (m, 2), optional
-        Each finger's coherent excess (:func:`coherent_excess`) [dB]; NaN: unknown.
-    coherent_offset : float
-        [dB]; the finger's input is at least ``coherent`` less it (inf: not).
-
-    Returns
-    -------
-    ndarray, shape (m, 2)
-        [dB]; NaN where a finger has no usable channel.
-    """
-    pooled = finger_means(z)
-    if math.isfinite(single_offset):
-        grouped = z[:, FINGER_INDEX]  # (m, 2, 3)
-        usable = np.isfinite(grouped)
-        # fmax skips NaN (NaN only where all are): the largest usable channel per finger
-        largest = np.fmax.reduce(grouped if usable.all() else
-                                 np.where(usable, grouped, np.nan), axis=2)
-        pooled = np.fmax(pooled, largest - single_offset)
-    if coherent is not None and math.isfinite(coherent_offset):
-        pooled = np.fmax(pooled, coherent - coherent_offset)
-    return pooled
-
-
-#: The products ``s_a s_b`` of the channel signs (+++, ++-, +-+, -++) for the pairs
-#: (01, 02, 12) of a finger, (4, 3).
-_SIGN_PATTERNS = np.array([[1.0, 1.0, 1.0], [1.0, -1.0, -1.0], [-1.0, 1.0, -1.0],
-                           [-1.0, -1.0, 1.0]])
-
-
-def coherent_excess(power_db: np.ndarray, level: np.ndarray, means: np.ndarray,
-                    products: np.ndarray) -> np.ndarray:
-    """Per finger, the power of the sum of its channels' band-passed signals, each divided
-    by its quiet band amplitude and the window's mean removed, over its quiet value 3.
-
-    A release rings one bending mode that the three channels of a finger see in phase while
-    their noises are independent: for three equal in-phase channels the sum's excess is a
-    channel's signal-to-noise ratio plus 4.8 dB, where the mean of their dB excesses gains
-    nothing. A lab may plumb a transducer reversed, so the largest of the four sign patterns
-    (+++, ++-, +-+, -++) is taken. The window's mean is removed: a ramp through the
-    band-pass is a constant on every channel, as coherent as a ring, while a 10-50 Hz ring
-    has little mean over the window.
-
-    Parameters
-    ----------
-    power_db : ndarray, shape (m, 6)
-        Each channel's band power over the window, floor included [dB]; NaN: unusable.
-    level : ndarray, shape (6,)
-        Quiet levels of ``power_db`` [dB]; NaN: none yet.
-    means, products : ndarray, shape (m, 6)
-        The window means of each channel's band-passed signal and of the products of the
-        finger pairs (:data:`~forte_perception.slip.state.PAIR_FIRST`, ``PAIR_SECOND``)
-        [normalised unit, unit^2].
-
-    Returns
-    -------
-    ndarray, shape (m, 2)
-        [dB]; NaN where a channel of the finger is unusable or has no level.
-    """
-    weight = 10.0 ** (-0.05 * level)  # 1 / quiet band amplitude, (6,)
-    variance = (10.0 ** (0.1 * power_db) - means * means) * (weight * weight)
-    covariance = ((products - means[:, PAIR_FIRST] * means[:, PAIR_SECOND])
-                  * (weight[PAIR_FIRST] * weight[PAIR_SECOND]))
-    best = (covariance.reshape(-1, 2, 1, 3) * _SIGN_PATTERNS).sum(axis=3).max(axis=2)
-    with np.errstate(invalid='ignore'):
-        return 10.0 * np.log10((variance[:, FINGER_INDEX].sum(axis=2) + 2.0 * best) / 3.0)
 
 
 def _lindley(x: np.ndarray, c0, m0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -373,13 +289,15 @@ class BandPowerCusum:
         self.dt = float(dt)
         self._block = max(1, int(round(self.params.level_block / self.dt)))
         self._clear = int(math.ceil(self.params.clear_time / self.dt - 1e-9))
-        self._levels = QuietLevels(
-            self._block, 1.0 - math.exp(-self._block * self.dt / self.params.level_tau))
+        beta = 1.0 - math.exp(-self._block * self.dt / self.params.level_tau)
+        self._levels = QuietLevels(self._block, beta)
+        self._companion = QuietLevels(self._block, beta)
         self.reset()
 
     def reset(self) -> None:
         """Forget everything, levels included: the next update is update 0 again."""
         self._levels.reset()
+        self._companion.reset()
         self._fingers = [_Finger(channels=tuple(c)) for c in FINGER_CHANNELS]
 
     @property
@@ -387,10 +305,17 @@ class BandPowerCusum:
         """Quiet level per channel [dB]; NaN before its first block."""
         return self._levels.level.copy()
 
+    @property
+    def companion_level(self) -> np.ndarray:
+        """Quiet level per channel of the ``companion`` powers [dB] (:meth:`update`), learnt
+        at the updates the levels are (NaN before its first block); read from a veto, the
+        level in effect at the alarm's update."""
+        return self._companion.level.copy()
+
     def update(self, psd_db: np.ndarray, veto: Callable[[int], bool] | None = None,
                weak: np.ndarray | None = None,
-               moments: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None = None
-               ) -> CusumResult:
+               moments: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None = None,
+               companion: np.ndarray | None = None) -> CusumResult:
         """Consume updates ``psd_db`` (m, 6) [dB] and return their decisions.
 
         Parameters
@@ -408,6 +333,10 @@ class BandPowerCusum:
             (:attr:`~forte_perception.slip.state.BandPower.moments`); asked only where a
             finger may hear the coherent excess, which then joins its input (with a finite
             ``coherent_offset``).
+        companion : ndarray (m, 6), optional
+            Powers of another band [dB] whose quiet levels (:attr:`companion_level`) are
+            learnt at the same quiet updates as the levels: a ratio of the two bands' gains
+            is then taken over references of the same moments.
         """
         y = np.asarray(psd_db, np.float64).reshape(-1, N_CHANNELS)
         m = y.shape[0]
@@ -418,39 +347,45 @@ class BandPowerCusum:
         while pos < m:  # segments of constant quiet levels, up to a block's end
             stop = self._levels.segment_stop(pos, m)
             self._segment(y, pos, stop, out, veto,
-                          None if allowed is None else allowed[pos:stop], moments)
+                          None if allowed is None else allowed[pos:stop], moments,
+                          None if companion is None else companion[pos:stop])
             pos = stop
         return out
 
     # -- one stretch of updates with constant levels
     def _segment(self, y: np.ndarray, lo: int, hi: int, out: CusumResult,
                  veto: Callable[[int], bool] | None, allowed: np.ndarray | None,
-                 moments: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None) -> None:
+                 moments: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None,
+                 companion: np.ndarray | None) -> None:
         seg = y[lo:hi]
         level = self._levels.level
+        coherent_offset = self.params.coherent_offset
         z = seg - level  # NaN where the channel is unusable or has no level yet
         finite = np.isfinite(z)
         everywhere = bool(finite.all())  # the common case: every channel usable, with a level
         out.active[lo:hi] = True if everywhere else (finite.any(axis=1)
                                                      | np.isfinite(level).any())
-        coherent = None
+        coherent = means = None
         # only where the weak test may listen (code flicker below)
-        if moments is not None and math.isfinite(self.params.coherent_offset) \
+        if moments is not None and (self.params.weak or coherent_offset < math.inf) \
                 and (allowed is None or allowed.any()):
-            means, products = moments()
-            coherent = coherent_excess(seg, level, means[lo:hi], products[lo:hi])
-            if allowed is not None:
-                coherent = np.where(allowed, coherent, np.nan)
+            means, products = (values[lo:hi] for values in moments())
+            if coherent_offset < math.inf:
+                coherent = coherent_excess(seg, level, means, products)
+                if allowed is not None:
+                    coherent = np.where(allowed, coherent, np.nan)
         # NaN: no usable channel
-        excess = pooled_excess(z, self.params.single_offset, coherent,
-                               self.params.coherent_offset)
+        excess = pooled_excess(z, self.params.single_offset, coherent, coherent_offset)
         out.excess[lo:hi] = excess
         x = (excess - self.params.drift) * self.dt  # (n, 2)
         if not everywhere:
             x = np.where(np.isnan(excess), 0.0, x)
         weak = None
         if self.params.weak:  # only fingers with every channel usable
-            weak = (excess - self.params.weak_drift) * self.dt
+            heard = excess if means is None else pooled_excess(
+                demeaned_excess(seg, level, means), self.params.single_offset, coherent,
+                coherent_offset)
+            weak = (heard - self.params.weak_drift) * self.dt
             whole = None if everywhere else finite[:, FINGER_INDEX].all(axis=2)
             if allowed is not None:  # (hi - lo, 2): where the caller lets it listen
                 whole = allowed if whole is None else whole & allowed
@@ -466,6 +401,8 @@ class BandPowerCusum:
                 out.slipping[lo:hi, f] = slipping
                 out.alarm[lo:hi, f] = alarm
                 quiet[:, list(finger.channels)] = (~slipping & (s == 0.0))[:, None]
+        if companion is not None:
+            self._companion.record(np.where(quiet & np.isfinite(companion), companion, np.nan))
         if self._levels.record(np.where(quiet & np.isfinite(seg), seg, np.nan)):  # new levels
             for finger in self._fingers:
                 if not finger.slipping:  # S = C - M; re-base so that C stays small
@@ -493,7 +430,7 @@ class BandPowerCusum:
             for f, finger in enumerate(fingers):
                 finger.weak = (float(weak_c[-1, f]), float(weak_mins[-1, f]))
         statistic[:] = stat
-        quiet[:] = (stat == 0.0)[:, _CHANNEL_FINGER]
+        quiet[:] = (stat == 0.0)[:, CHANNEL_FINGER]
         for f, finger in enumerate(fingers):
             finger.c, finger.m = float(c[-1, f]), float(mins[-1, f])
         return True
@@ -521,7 +458,7 @@ class BandPowerCusum:
             results.append((stat, ends))
         first = np.array(results[0][0])
         statistic[:] = first
-        quiet[:] = (first == 0.0)[:, _CHANNEL_FINGER]
+        quiet[:] = (first == 0.0)[:, CHANNEL_FINGER]
         for f, finger in enumerate(fingers):
             finger.c, finger.m = results[0][1][f]
             if weak is not None:

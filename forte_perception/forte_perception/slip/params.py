@@ -91,7 +91,7 @@ class SlipParams:
     sequential_single_offset : float
         Sequential mode: a finger's input is the larger of its channels' mean excess and its
         largest channel's excess less this [dB] (4; inf: the mean alone;
-        :func:`forte_perception.slip.cusum.pooled_excess`).
+        :func:`forte_perception.slip.excess.pooled_excess`).
     """
 
     window: int = 400

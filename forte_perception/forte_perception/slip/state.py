@@ -75,6 +75,8 @@ from forte_ros.contract import FINGER_CHANNELS, N_CHANNELS, QUANTUM
 
 #: Each finger's channels, (2, 3): one gather groups a (k, 6) array by finger.
 FINGER_INDEX = np.array(FINGER_CHANNELS)
+#: The finger of each channel, (6,).
+CHANNEL_FINGER = np.argsort(FINGER_INDEX.ravel()) // FINGER_INDEX.shape[1]
 #: The three channel pairs of each finger, (01, 02, 12) of the left then the right finger:
 #: the columns of :attr:`BandPower.moments`' cross products, (6,) each.
 PAIR_FIRST = FINGER_INDEX[:, [0, 0, 1]].ravel()

@@ -52,7 +52,7 @@ def test_one_input_alone_reads_its_finger_and_the_others_read_the_other_finger()
 
 def test_a_slip_that_one_input_carries_is_still_found_by_the_sequential_mode(scenes):
     """Each input in turn the only one of its finger's three that reads that finger: the
-    sequential mode's largest-channel route (cusum.pooled_excess) keeps at least 3/4 of the
+    sequential mode's largest-channel route (excess.pooled_excess) keeps at least 3/4 of the
     as-built recall on these 12 events (8-9 of the 10 found as built; held-out set, 240
     scenes: 0.96 of as built, with the finger mean alone 0.86) and flags neither the quiet
     hold nor the closing steps."""

@@ -8,18 +8,12 @@ import pytest
 
 from forte_perception.evaluation.benchmark import MODES, cusum_mode, prepare
 from forte_perception.evaluation.scenes import make_scene
-from forte_perception.slip.cusum import (
-    BandPowerCusum,
-    CusumParams,
-    coherent_excess,
-    expected_delay,
-    pooled_excess,
-)
+from forte_perception.slip.cusum import BandPowerCusum, CusumParams, expected_delay
 
 DT = 4 / 2000.0        # hop 4 at 2 kHz
 LEVEL = -80.0          # quiet level of every channel [dB]
 BLOCK = 100            # updates per level block at the default 0.2 s
-#: the sequential mode's pair: drift 8 dB, h 0.05 dB s; weak-change test 6 dB, 0.1 dB s
+#: drift 8 dB, h 0.05 dB s (the sequential mode's); weak-change test 6 dB, 0.1 dB s
 WEAK = CusumParams(drift=8.0, threshold=0.05, weak_drift=6.0, weak_threshold=0.1)
 
 
@@ -144,34 +138,6 @@ def test_a_vetoed_alarm_raises_nothing_and_the_statistic_restarts():
     assert np.flatnonzero(out.slip)[0] == 303           # two more updates from S = 0
 
 
-def test_one_channel_alone_is_pooled_at_its_excess_less_the_offset():
-    z = np.array([[12.0, 0.0, 0.0, 3.0, 3.0, 3.0],        # one channel of the left finger
-                  [9.0, 9.0, 9.0, np.nan, 1.0, np.nan],   # a whole finger; one usable channel
-                  [np.nan] * 3 + [-2.0, -1.0, 0.0]])      # a blind finger, a quiet one
-    np.testing.assert_allclose(pooled_excess(z, math.inf), [[4.0, 3.0], [9.0, 1.0],
-                                                            [np.nan, -1.0]])
-    np.testing.assert_allclose(pooled_excess(z, 4.0), [[8.0, 3.0], [9.0, 1.0],
-                                                       [np.nan, -1.0]])
-
-
-@pytest.mark.parametrize('offset', [math.inf, 4.0])
-def test_every_channel_usable_pools_as_the_masked_rule_bit_for_bit(offset):
-    """Rows whose six channels are all finite take a path without masking; it must give the
-    masked rule's numbers exactly (mean of the usable channels, largest less the offset),
-    whatever the magnitudes, or chunks with a NaN elsewhere would pool differently."""
-    rng = np.random.default_rng(11)
-    for scale in (1e-3, 1.0, 30.0, 1e4):
-        z = scale * rng.standard_normal((400, 6))
-        masked = z.copy()
-        masked[-1] = np.nan                              # the last row forces the masked rule
-        got = pooled_excess(z, offset)
-        want = pooled_excess(masked, offset)[:-1]
-        assert np.array_equal(got[:-1], want)
-        grouped = z[:, [[0, 1, 2], [3, 4, 5]]]
-        np.testing.assert_allclose(got, np.fmax(grouped.mean(axis=2),
-                                                grouped.max(axis=2) - offset), rtol=1e-12)
-
-
 def test_a_step_on_one_channel_alarms_only_with_the_single_channel_route():
     """20 dB on one channel: its finger's mean rises 6.7 dB, under the 8 dB drift, so the
     mean alone never alarms; less a 4 dB offset the channel gives 16 dB, which alarms after
@@ -260,51 +226,19 @@ def test_the_cusum_mode_finds_strong_stick_slip_and_ignores_a_quiet_hold():
     assert not cusum_mode(quiet).slip.any()
 
 
-def moments_of(signals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Power [dB], means and finger-pair products (1, 6) of one window of ``signals`` (n, 6)."""
-    means = signals.mean(axis=0)
-    products = np.array([(signals[:, a] * signals[:, b]).mean()
-                         for a, b in ((0, 1), (0, 2), (1, 2), (3, 4), (3, 5), (4, 5))])
-    return (10.0 * np.log10((signals ** 2).mean(axis=0)))[None], means[None], products[None]
-
-
-def test_the_coherent_excess_of_known_windows():
-    """Whitened by quiet levels of 0 dB: three equal in-phase unit sines give 10 log10(3 x
-    0.5 x 3 / 3) (a channel's 0.5 plus 4.8 dB), whatever the sign of each channel; three
-    orthogonal ones give the mean of the channels' powers; a constant gives nothing."""
-    t = np.arange(400) / 2000.0
-    sine = np.sin(2 * np.pi * 25.0 * t)
-    cosine = np.cos(2 * np.pi * 25.0 * t)
-    level = np.zeros(6)
-    equal = 10.0 * math.log10(0.5 * 3.0)
-    for signs in ((1, 1, 1), (1, -1, 1), (-1, 1, 1), (1, 1, -1), (-1, -1, -1)):
-        signals = np.column_stack([s * sine for s in signs] + [sine, sine, cosine])
-        got = coherent_excess(*[moments_of(signals)[0], level, *moments_of(signals)[1:]])
-        assert got[0, 0] == pytest.approx(equal, abs=1e-9)
-        # the right finger: two in phase and one in quadrature: (0.5 x 4 + 0.5) / 3
-        assert got[0, 1] == pytest.approx(10.0 * math.log10(2.5 / 3.0), abs=1e-3)
-    signals = np.column_stack([sine, cosine, 1e-3 * np.sin(2 * np.pi * 50.0 * t)] * 2)
-    got = coherent_excess(*[moments_of(signals)[0], level, *moments_of(signals)[1:]])
-    assert got[0, 0] == pytest.approx(10.0 * math.log10((0.5 + 0.5 + 0.5e-6) / 3.0), abs=1e-3)
-    # a constant (a ramp through the band-pass) on every channel: the mean is removed
-    power, means, products = moments_of(np.full((400, 6), 2.0) + 1e-3 * sine[:, None])
-    assert coherent_excess(power, level, means, products)[0, 0] < -50.0  # 10.8 dB with it
-    # a channel without a level or unusable: that finger unknown, the other not
-    for bad_level, bad_power in ((0, None), (None, 4)):
-        lv, pw = level.copy(), moments_of(signals)[0].copy()
-        if bad_level is not None:
-            lv[bad_level] = np.nan
-        if bad_power is not None:
-            pw[0, bad_power] = np.nan
-        got = coherent_excess(pw, lv, *moments_of(signals)[1:])
-        assert np.isnan(got[0, 0 if bad_level is not None else 1])
-        assert np.isfinite(got[0, 1 if bad_level is not None else 0])
-
-
-def test_the_coherent_excess_joins_the_pooled_input_less_its_offset():
-    z = np.array([[2.0, 2.0, 2.0, 9.0, 0.0, 0.0]])
-    coherent = np.array([[7.0, np.nan]])
-    np.testing.assert_array_equal(pooled_excess(z, 4.0, coherent, 2.0), [[5.0, 5.0]])
-    np.testing.assert_array_equal(pooled_excess(z, 4.0, coherent, math.inf), [[2.0, 5.0]])
-    np.testing.assert_array_equal(pooled_excess(z, 4.0), [[2.0, 5.0]])
-    np.testing.assert_array_equal(pooled_excess(z, math.inf, coherent, 2.0), [[5.0, 3.0]])
+def test_the_weak_change_test_hears_only_what_varies_within_the_window():
+    """A 7.5 dB step that only the weak-change test hears (34 updates, above): when the
+    window moments say its power is a window mean (a ramp through the band-pass is a
+    constant), the test hears nothing; with zero means (a ring), it alarms as before. The
+    first test, the excess and the levels keep the whole power either way."""
+    y = constant(600)
+    y[300:, 3:] += 7.5
+    power = 10.0 ** (0.1 * y)
+    for means, alarm in ((np.zeros_like(y), [333]), (np.sqrt(power), [])):
+        out = BandPowerCusum(DT, WEAK).update(y, moments=lambda means=means: (means, means))
+        np.testing.assert_array_equal(np.flatnonzero(out.slip), alarm)
+        np.testing.assert_allclose(out.excess[300:400, 1], 7.5, atol=1e-9)  # next block: 7.2
+    y[300:, 3:] += 12.5                                  # 20 dB: the first test hears it
+    out = BandPowerCusum(DT, WEAK).update(y, moments=lambda: (np.sqrt(10.0 ** (0.1 * y)),) * 2)
+    np.testing.assert_array_equal(np.flatnonzero(out.slip), [300 + expected_delay(
+        20.0, CusumParams(drift=8.0, threshold=0.05), DT) - 1])
