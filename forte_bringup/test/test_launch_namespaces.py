@@ -129,7 +129,7 @@ def grasp_in_thread(probe: Watcher, results: dict[str, Any], key: str) -> thread
     def run() -> None:
         goal = Grasp.Goal(controller=Grasp.Goal.FORTE, lift_distance=0.01, timeout=90.0)
         try:
-            results[key] = probe.grasp(goal, timeout=240.0)
+            results[key] = probe.grasp_once_inputs_flow(goal, timeout=240.0)
         except Exception as error:  # noqa: BLE001  reported by the test, not lost in the thread
             results[key] = error
 

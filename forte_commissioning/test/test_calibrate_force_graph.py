@@ -137,7 +137,7 @@ def raspberry_in_the_sim_graph(model_path, log_dir) -> None:
             assert values['force model'] == 'loaded', values
             assert values['model trained on device'] == values['sensor device'] == 'simulator'
             goal = Grasp.Goal(controller=Grasp.Goal.FORTE, lift_distance=0.01, timeout=60.0)
-            accepted, result, _ = watcher.grasp(goal, timeout=120.0)
+            accepted, result, _ = watcher.grasp_once_inputs_flow(goal, timeout=120.0)
             assert accepted and result is not None, watcher.last_grasp_state
             truth = watcher.truth
             assert (result.outcome, truth.object_state) == (
