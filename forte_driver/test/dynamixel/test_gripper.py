@@ -260,6 +260,9 @@ def test_long_run_every_command_is_exactly_one_packet(bus, gripper):
         assert gripper.command(theta).accepted
         if index % 100 == 0:
             _read_state(gripper)  # interleaved reads, as in the node
-    assert wait_until(lambda: bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 1000)
-    assert bus.register_value(1, 'Goal Position') == gripper.config.right.theta_to_raw(thetas[-1])
-    assert bus.register_value(2, 'Goal Position') == gripper.config.left.theta_to_raw(thetas[-1])
+    goals = (gripper.config.right.theta_to_raw(thetas[-1]),
+             gripper.config.left.theta_to_raw(thetas[-1]))
+    # the bus counts a packet when it arrives and applies it after: wait for both, the count
+    # exact (an extra packet never satisfies it) and the last goal applied
+    assert wait_until(lambda: bus.count(proto.INSTRUCTION_SYNC_WRITE) - before == 1000 and (
+        bus.register_value(1, 'Goal Position'), bus.register_value(2, 'Goal Position')) == goals)
