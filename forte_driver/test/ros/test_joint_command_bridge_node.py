@@ -126,7 +126,8 @@ def test_out_of_range_and_malformed_commands_are_refused_naming_why(servos, rig)
     assert wait_for(lambda: servos.register_value(1, 'Goal Position') == 2048 + 326)
     publish(rig, joint_command([RIGHT], [-0.0005]))
     assert wait_for(lambda: servos.register_value(1, 'Goal Position') == 2048)
-    assert rig.driver.counters['bridge_commands_clipped'] == 1
+    # the node counts the clip once its write has returned, after the bus applied it
+    assert wait_for(lambda: rig.driver.counters['bridge_commands_clipped'] == 1)
     assert wait_for(lambda: any('position -0.000500 rad clipped to the limit 0.0000 rad'
                                 in line for line in rig.log)), rig.log[-3:]
 
